@@ -1,0 +1,428 @@
+// host/batch.cpp — rod construction, validation and the slot layout
+// (include/manyrods/batch.h explains the layout).
+#include "manyrods/batch.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <sstream>
+
+namespace manyrods {
+namespace {
+
+using E3 = Eigen::Vector3d;
+using EM3 = Eigen::Matrix3d;
+
+E3 to_eigen(const Vec3& v) { return {v[0], v[1], v[2]}; }
+Vec3 from_eigen(const E3& v) { return {v[0], v[1], v[2]}; }
+EM3 to_eigen(const Mat3& m) {
+  EM3 r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r(i, j) = m[3 * i + j];
+  return r;
+}
+Mat3 from_eigen(const EM3& m) {
+  Mat3 r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r[3 * i + j] = m(i, j);
+  return r;
+}
+
+[[noreturn]] void fail(const std::string& what) { throw InputError(what); }
+
+std::string vec_str(const Vec3& v) {
+  std::ostringstream os;
+  os.precision(17);
+  os << "[" << v[0] << ", " << v[1] << ", " << v[2] << "]";
+  return os.str();
+}
+
+bool finite(const Vec3& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+
+// −log(Q_b Q_aᵀ)/D̂ in double (the rest curvature of a given geometry).
+E3 discrete_curvature(const EM3& qa, const EM3& qb, double d) {
+  const Eigen::AngleAxisd aa(qb * qa.transpose());
+  return -aa.angle() * aa.axis() / d;
+}
+
+void validate_frame(const Mat3& q, const std::string& field) {
+  for (double v : q)
+    if (!std::isfinite(v)) fail(field + ": frame has a non-finite entry");
+  const EM3 m = to_eigen(q);
+  const double err = (m * m.transpose() - EM3::Identity()).norm();
+  if (err > 1e-6) {
+    std::ostringstream os;
+    os << field << ": frame is not orthonormal (|Q Qᵀ - I| = " << err << ", tolerance 1e-6)";
+    fail(os.str());
+  }
+  if (m.determinant() < 0) fail(field + ": frame is left-handed (det < 0)");
+}
+
+void validate_rod(const RodSpec& s) {
+  const int n = s.elements();
+  if (n < 1) fail("elements = " + std::to_string(n) + ": a rod needs at least 1 element");
+  if (static_cast<int>(s.nodes.size()) != n + 1)
+    fail("nodes: " + std::to_string(s.nodes.size()) + " given, " + std::to_string(n + 1) +
+         " needed for " + std::to_string(n) + " elements");
+  for (int j = 0; j <= n; ++j)
+    if (!finite(s.nodes[j]))
+      fail("nodes[" + std::to_string(j) + "] = " + vec_str(s.nodes[j]) + ": not finite");
+  for (int e = 0; e < n; ++e) {
+    const double l = (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])).norm();
+    if (!(l > 0)) fail("element " + std::to_string(e) + ": zero length (nodes coincide)");
+    validate_frame(s.frames[e], "frames[" + std::to_string(e) + "]");
+  }
+  if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
+  auto check_vectors = [](const std::vector<Vec3>& v, std::size_t need, const char* name) {
+    if (v.empty()) return;
+    if (v.size() != need)
+      fail(std::string(name) + ": " + std::to_string(v.size()) + " given, " +
+           std::to_string(need) + " needed");
+    for (std::size_t i = 0; i < v.size(); ++i)
+      if (!finite(v[i])) fail(std::string(name) + "[" + std::to_string(i) + "] = " + vec_str(v[i]) + ": not finite");
+  };
+  check_vectors(s.rest_curvature, n - 1, "rest_curvature");
+  check_vectors(s.rest_strain, n, "rest_strain");
+  check_vectors(s.velocities, n + 1, "velocities");
+  check_vectors(s.angular_velocities, n, "angular_velocities");
+}
+
+}  // namespace
+
+RodSpec RodSpec::straight(const Vec3& start, const Vec3& direction, const Vec3& normal,
+                          double length, int elements) {
+  if (elements < 1) fail("elements = " + std::to_string(elements) + ": a rod needs at least 1 element");
+  if (!std::isfinite(length) || !(length > 0))
+    fail("length = " + std::to_string(length) + ": must be a finite number > 0");
+  if (!finite(start)) fail("start = " + vec_str(start) + ": not finite");
+  const E3 d = to_eigen(direction);
+  if (!finite(direction) || !(d.norm() > 0)) fail("direction = " + vec_str(direction) + ": must be a finite non-zero vector");
+  const E3 d3 = d.normalized();
+  E3 d1 = to_eigen(normal);
+  if (!finite(normal)) fail("normal = " + vec_str(normal) + ": not finite");
+  d1 -= d1.dot(d3) * d3;
+  if (!(d1.norm() > 1e-12 * std::max(1.0, to_eigen(normal).norm())))
+    fail("normal = " + vec_str(normal) + ": must not be parallel to direction");
+  d1.normalize();
+  const E3 d2 = d3.cross(d1);
+  EM3 q;
+  q.row(0) = d1;
+  q.row(1) = d2;
+  q.row(2) = d3;
+  RodSpec s;
+  s.nodes.resize(elements + 1);
+  for (int j = 0; j <= elements; ++j)
+    s.nodes[j] = from_eigen(E3(to_eigen(start) + (length * j / elements) * d3));
+  s.frames.assign(elements, from_eigen(q));
+  return s;
+}
+
+RodSpec RodSpec::polyline(std::vector<Vec3> nodes, std::vector<Mat3> frames) {
+  RodSpec s;
+  s.nodes = std::move(nodes);
+  s.frames = std::move(frames);
+  return s;
+}
+
+std::vector<Mat3> RodSpec::parallel_transport_frames(const std::vector<Vec3>& nodes,
+                                                     const Vec3& first_normal) {
+  std::vector<Mat3> frames;
+  if (nodes.size() < 2) return frames;
+  E3 d1 = to_eigen(first_normal);
+  E3 t_prev = (to_eigen(nodes[1]) - to_eigen(nodes[0])).normalized();
+  for (std::size_t e = 0; e + 1 < nodes.size(); ++e) {
+    const E3 t = (to_eigen(nodes[e + 1]) - to_eigen(nodes[e])).normalized();
+    // rotate d1 by the minimal rotation taking t_prev to t
+    const E3 axis = t_prev.cross(t);
+    const double s = axis.norm(), c = t_prev.dot(t);
+    if (s > 1e-15) d1 = Eigen::AngleAxisd(std::atan2(s, c), axis / s) * d1;
+    d1 -= d1.dot(t) * t;
+    d1.normalize();
+    EM3 q;
+    q.row(0) = d1;
+    q.row(1) = t.cross(d1);
+    q.row(2) = t;
+    frames.push_back(from_eigen(q));
+    t_prev = t;
+  }
+  return frames;
+}
+
+template <class T>
+void RodBatch<T>::allocate(int slots, std::int64_t elements) {
+  slots_ = slots;
+  element_count_ = elements;
+  const std::size_t S = static_cast<std::size_t>(slots);
+  auto fill3 = [S](std::array<Array<T>, 3>& a, T x, T y, T z) {
+    a[0].resize(S, x);
+    a[1].resize(S, y);
+    a[2].resize(S, z);
+  };
+  model.node_mass.resize(S, T(0));
+  model.node_inv_mass.resize(S, T(0));
+  model.elem_rest_length.resize(S, T(1));
+  fill3(model.elem_stiffness, 0, 0, 0);
+  fill3(model.elem_rest_strain, 0, 0, 1);
+  fill3(model.elem_tau, 0, 0, 0);
+  fill3(model.elem_inertia, 0, 0, 0);
+  fill3(model.elem_inv_inertia, 0, 0, 0);
+  model.vor_rest_length.resize(S, T(1));
+  fill3(model.vor_stiffness, 0, 0, 0);
+  fill3(model.vor_rest_curvature, 0, 0, 0);
+  fill3(model.vor_tau, 0, 0, 0);
+  fill3(state.node_x, 0, 0, 0);
+  fill3(state.node_v, 0, 0, 0);
+  for (int i = 0; i < 9; ++i) state.elem_Q[i].resize(S, (i % 4 == 0) ? T(1) : T(0));
+  fill3(state.elem_w, 0, 0, 0);
+  for (auto* a : {&scratch.elem_force, &scratch.elem_couple, &scratch.vor_moment, &scratch.vor_kxm,
+                  &loads.node_force, &loads.elem_couple})
+    fill3(*a, 0, 0, 0);
+}
+
+template <class T>
+Vec3 RodBatch<T>::position(int r, int j) const {
+  const int k = node_index(r, j);
+  return {double(state.node_x[0][k]), double(state.node_x[1][k]), double(state.node_x[2][k])};
+}
+template <class T>
+Vec3 RodBatch<T>::velocity(int r, int j) const {
+  const int k = node_index(r, j);
+  return {double(state.node_v[0][k]), double(state.node_v[1][k]), double(state.node_v[2][k])};
+}
+template <class T>
+Mat3 RodBatch<T>::frame(int r, int e) const {
+  const int k = elem_index(r, e);
+  Mat3 q;
+  for (int i = 0; i < 9; ++i) q[i] = double(state.elem_Q[i][k]);
+  return q;
+}
+template <class T>
+Vec3 RodBatch<T>::angular_velocity(int r, int e) const {
+  const int k = elem_index(r, e);
+  return {double(state.elem_w[0][k]), double(state.elem_w[1][k]), double(state.elem_w[2][k])};
+}
+template <class T>
+void RodBatch<T>::set_velocity(int r, int j, const Vec3& v) {
+  const int k = node_index(r, j);
+  if (model.node_inv_mass[k] == T(0)) return;  // clamped node stays at rest
+  for (int d = 0; d < 3; ++d) state.node_v[d][k] = T(v[d]);
+}
+template <class T>
+void RodBatch<T>::set_angular_velocity(int r, int e, const Vec3& w) {
+  const int k = elem_index(r, e);
+  for (int d = 0; d < 3; ++d) state.elem_w[d][k] = T(w[d]);
+}
+template <class T>
+void RodBatch<T>::set_node_force(int r, int j, const Vec3& f) {
+  if (!finite(f)) fail("rod " + std::to_string(r) + ": node force " + vec_str(f) + " is not finite");
+  const int k = node_index(r, j);
+  for (int d = 0; d < 3; ++d) loads.node_force[d][k] = T(f[d]);
+}
+template <class T>
+void RodBatch<T>::set_element_couple(int r, int e, const Vec3& c) {
+  if (!finite(c)) fail("rod " + std::to_string(r) + ": element couple " + vec_str(c) + " is not finite");
+  const int k = elem_index(r, e);
+  for (int d = 0; d < 3; ++d) loads.elem_couple[d][k] = T(c[d]);
+}
+template <class T>
+void RodBatch<T>::set_gravity(const Vec3& g) {
+  if (!finite(g)) fail("gravity = " + vec_str(g) + ": not finite");
+  model.gravity = {T(g[0]), T(g[1]), T(g[2])};
+}
+
+template <class T>
+std::size_t RodBatch<T>::bytes() const {
+  std::size_t b = model.node_mass.bytes() + model.node_inv_mass.bytes() +
+                  model.elem_rest_length.bytes() + model.vor_rest_length.bytes();
+  for (auto* a : {&model.elem_stiffness, &model.elem_rest_strain, &model.elem_tau, &model.elem_inertia,
+                  &model.elem_inv_inertia, &model.vor_stiffness, &model.vor_rest_curvature, &model.vor_tau,
+                  &state.node_x, &state.node_v, &state.elem_w, &scratch.elem_force, &scratch.elem_couple,
+                  &scratch.vor_moment, &scratch.vor_kxm, &loads.node_force, &loads.elem_couple})
+    for (const auto& x : *a) b += x.bytes();
+  for (const auto& x : state.elem_Q) b += x.bytes();
+  return b;
+}
+
+template <class T>
+ModelView<T> RodBatch<T>::model_view() const {
+  const Model<T>& m = model;
+  auto p3 = [](const std::array<Array<T>, 3>& a) {
+    return std::array<const T*, 3>{a[0].data(), a[1].data(), a[2].data()};
+  };
+  ModelView<T> v{};
+  v.node_mass = m.node_mass.data();
+  v.node_inv_mass = m.node_inv_mass.data();
+  v.elem_rest_length = m.elem_rest_length.data();
+  v.vor_rest_length = m.vor_rest_length.data();
+  auto set3 = [&](const T* (&dst)[3], const std::array<Array<T>, 3>& src) {
+    const auto p = p3(src);
+    for (int i = 0; i < 3; ++i) dst[i] = p[i];
+  };
+  set3(v.elem_stiffness, m.elem_stiffness);
+  set3(v.elem_rest_strain, m.elem_rest_strain);
+  set3(v.elem_tau, m.elem_tau);
+  set3(v.elem_inertia, m.elem_inertia);
+  set3(v.elem_inv_inertia, m.elem_inv_inertia);
+  set3(v.vor_stiffness, m.vor_stiffness);
+  set3(v.vor_rest_curvature, m.vor_rest_curvature);
+  set3(v.vor_tau, m.vor_tau);
+  v.gravity = m.gravity;
+  return v;
+}
+
+template <class T>
+StateView<T> RodBatch<T>::state_view() {
+  StateView<T> v{};
+  for (int i = 0; i < 3; ++i) {
+    v.node_x[i] = state.node_x[i].data();
+    v.node_v[i] = state.node_v[i].data();
+    v.elem_w[i] = state.elem_w[i].data();
+  }
+  for (int i = 0; i < 9; ++i) v.elem_Q[i] = state.elem_Q[i].data();
+  return v;
+}
+template <class T>
+ConstStateView<T> RodBatch<T>::state_view() const {
+  return as_const(const_cast<RodBatch<T>*>(this)->state_view());
+}
+template <class T>
+ScratchView<T> RodBatch<T>::scratch_view() {
+  ScratchView<T> v{};
+  for (int i = 0; i < 3; ++i) {
+    v.elem_force[i] = scratch.elem_force[i].data();
+    v.elem_couple[i] = scratch.elem_couple[i].data();
+    v.vor_moment[i] = scratch.vor_moment[i].data();
+    v.vor_kxm[i] = scratch.vor_kxm[i].data();
+  }
+  return v;
+}
+template <class T>
+ConstScratchView<T> RodBatch<T>::scratch_view() const {
+  return as_const(const_cast<RodBatch<T>*>(this)->scratch_view());
+}
+template <class T>
+LoadsView<T> RodBatch<T>::loads_view() const {
+  LoadsView<T> v{};
+  for (int i = 0; i < 3; ++i) {
+    v.node_force[i] = loads.node_force[i].data();
+    v.elem_couple[i] = loads.elem_couple[i].data();
+  }
+  return v;
+}
+
+template <class T>
+RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) {
+  RodBatch<T> b;
+  b.set_gravity(gravity);
+  std::int64_t slots = 0, elements = 0;
+  for (std::size_t r = 0; r < specs.size(); ++r) {
+    const RodSpec& s = specs[r];
+    RodInfo info;
+    info.name = s.name;
+    info.elements = s.elements();
+    info.offset = static_cast<int>(slots);
+    info.clamped_root = s.clamped_root;
+    try {
+      validate_rod(s);
+      info.elastic = resolve_material(s.material);
+      info.section = section_properties(s.section, info.elastic.nu);
+      info.tau = resolve_damping(s.damping, info.elastic);
+    } catch (const InputError& e) {
+      throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
+    }
+    slots += info.elements + 2;
+    elements += info.elements;
+    if (slots > (std::int64_t(1) << 31) - 4 * kGuard)
+      fail("batch: " + std::to_string(slots) + " slots exceed the 32-bit index range");
+    b.rods.push_back(info);
+  }
+  slots = (slots + 1 + kGuard - 1) / kGuard * kGuard;  // + 1: the last tip ghost reads one node past
+  b.allocate(static_cast<int>(slots), elements);
+
+  Model<T>& m = b.model;
+  State<T>& st = b.state;
+  for (std::size_t r = 0; r < specs.size(); ++r) {
+    const RodSpec& s = specs[r];
+    const RodInfo& info = b.rods[r];
+    const int n = info.elements, o = info.offset;
+    const ElasticConstants& c = info.elastic;
+    const SectionProperties& p = info.section;
+    const double tS = info.tau.shear, tE = info.tau.extension;
+    const Vec3 cf = {p.shear_factor1 * c.G * p.area, p.shear_factor2 * c.G * p.area, c.E * p.area};
+    const Vec3 cm = {c.E * p.I1, c.E * p.I2, c.G * p.torsion_constant};
+    std::vector<double> len(n);
+    std::vector<EM3> q(n);
+    for (int e = 0; e < n; ++e) {
+      len[e] = (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])).norm();
+      q[e] = to_eigen(s.frames[e]);
+    }
+    // nodes
+    for (int j = 0; j <= n; ++j) {
+      const int k = o + 1 + j;
+      double mass = 0;
+      if (j > 0) mass += 0.5 * c.density * p.area * len[j - 1];
+      if (j < n) mass += 0.5 * c.density * p.area * len[j];
+      m.node_mass[k] = T(mass);
+      m.node_inv_mass[k] = (j == 0 && s.clamped_root) ? T(0) : T(1 / mass);
+      for (int d = 0; d < 3; ++d) {
+        st.node_x[d][k] = T(s.nodes[j][d]);
+        st.node_v[d][k] = (s.velocities.empty() || (j == 0 && s.clamped_root)) ? T(0) : T(s.velocities[j][d]);
+      }
+    }
+    for (int d = 0; d < 3; ++d) st.node_x[d][o] = T(s.nodes[0][d]);  // root ghost node: finite, still
+    // elements
+    for (int e = 0; e < n; ++e) {
+      const int k = o + 1 + e;
+      m.elem_rest_length[k] = T(len[e]);
+      const E3 v0 = s.rest_strain.empty()
+                        ? E3(q[e] * (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])) / len[e])
+                        : to_eigen(s.rest_strain[e]);
+      const Vec3 J = {p.I1, p.I2, p.I3}, tau = {tS, tS, tE};
+      for (int d = 0; d < 3; ++d) {
+        m.elem_stiffness[d][k] = T(cf[d]);
+        m.elem_rest_strain[d][k] = T(v0[d]);
+        m.elem_tau[d][k] = T(tau[d]);
+        m.elem_inertia[d][k] = T(c.density * len[e] * J[d]);
+        m.elem_inv_inertia[d][k] = T(1 / (c.density * len[e] * J[d]));
+        st.elem_w[d][k] = s.angular_velocities.empty() ? T(0) : T(s.angular_velocities[e][d]);
+      }
+      for (int i = 0; i < 9; ++i) st.elem_Q[i][k] = T(s.frames[e][i]);
+    }
+    // root ghost element: the clamp frame; tip ghost: a copy of the last frame
+    const Mat3 root = s.root_frame ? *s.root_frame : s.frames[0];
+    for (int i = 0; i < 9; ++i) {
+      st.elem_Q[i][o] = T(root[i]);
+      st.elem_Q[i][o + n + 1] = T(s.frames[n - 1][i]);
+    }
+    // Voronoi points: interior j joins elements j and j+1 (slot o+2+j)
+    auto set_vor = [&](int k, double d_hat, const E3& u0) {
+      m.vor_rest_length[k] = T(d_hat);
+      const Vec3 tau = {tE, tE, tS};
+      for (int d = 0; d < 3; ++d) {
+        m.vor_stiffness[d][k] = T(cm[d]);
+        m.vor_rest_curvature[d][k] = T(u0[d]);
+        m.vor_tau[d][k] = T(tau[d]);
+      }
+    };
+    for (int j = 0; j + 1 < n; ++j) {
+      const double d_hat = 0.5 * (len[j] + len[j + 1]);
+      const E3 u0 = s.rest_curvature.empty() ? discrete_curvature(q[j], q[j + 1], d_hat)
+                                             : to_eigen(s.rest_curvature[j]);
+      set_vor(o + 2 + j, d_hat, u0);
+    }
+    if (s.clamped_root) {
+      const double d_hat = 0.5 * len[0];
+      set_vor(o + 1, d_hat, discrete_curvature(to_eigen(root), q[0], d_hat));
+    } else {
+      m.vor_rest_length[o + 1] = T(0.5 * len[0]);
+    }
+    m.vor_rest_length[o + n + 1] = T(0.5 * len[n - 1]);
+  }
+  return b;
+}
+
+template class RodBatch<float>;
+template class RodBatch<double>;
+template RodBatch<float> build_batch<float>(const std::vector<RodSpec>&, const Vec3&);
+template RodBatch<double> build_batch<double>(const std::vector<RodSpec>&, const Vec3&);
+
+}  // namespace manyrods

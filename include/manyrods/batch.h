@@ -1,0 +1,163 @@
+// include/manyrods/batch.h — rods, and the batch that holds many of them in
+// structure-of-arrays form (DESIGN.md §4).
+//
+// Slot layout. Rod r with n_r elements owns the slots [o_r, o_r + n_r + 2):
+//
+//   slot        o_r      o_r+1     o_r+2   …   o_r+n_r   o_r+n_r+1
+//   element     ghost    e0        e1      …   e_{n−1}   ghost (tip)
+//   node        ghost    node 0    node 1  …   node n−1  node n
+//   Voronoi     ghost    root      v0      …   v_{n−2}   tip (ghost)
+//
+// Node k lies between elements k−1 and k; Voronoi point k joins elements k−1
+// and k. The root ghost element holds the clamp frame of a clamped rod, and
+// the root Voronoi point (length l̂_0/2, the stiffness of element 0) ties
+// element 0 to it; for a free root its stiffness is zero. Ghost entries have
+// zero mass, stiffness and inverse inertia, so a kernel sweeps all slots with
+// no branch at rod boundaries and ghosts never change the result. The slot
+// count is padded to a multiple of the kernel block (64).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kernels/views.h"
+#include "manyrods/array.h"
+#include "manyrods/material.h"
+
+namespace manyrods {
+
+using Vec3 = std::array<double, 3>;
+using Mat3 = std::array<double, 9>;  // row-major, rows = directors d1, d2, d3
+
+// One rod as the user describes it (double precision, SI units).
+struct RodSpec {
+  std::string name;
+  std::vector<Vec3> nodes;   // [n+1] centerline
+  std::vector<Mat3> frames;  // [n] element frames, rows = d1, d2, d3
+  Section section;
+  Material material;
+  Damping damping;
+  bool clamped_root = false;          // node 0 fixed, frame fixed at s = 0
+  std::optional<Mat3> root_frame;     // clamp frame at s = 0 (default: frames[0])
+  // Rest shape. Empty = the given geometry is the rest shape (unstressed).
+  std::vector<Vec3> rest_curvature;   // [n−1] U0 at interior Voronoi points, 1/m
+  std::vector<Vec3> rest_strain;      // [n] V0, rest lengths are the given ones
+  // Initial motion. Empty = at rest.
+  std::vector<Vec3> velocities;          // [n+1] m/s
+  std::vector<Vec3> angular_velocities;  // [n] rad/s, material components
+
+  // A straight rod: d3 along `direction`, d1 along `normal` made orthogonal.
+  static RodSpec straight(const Vec3& start, const Vec3& direction, const Vec3& normal,
+                          double length, int elements);
+  // A rod along a polyline with the given frames.
+  static RodSpec polyline(std::vector<Vec3> nodes, std::vector<Mat3> frames);
+  // Frames for a polyline: d3 along each segment, d1 carried by parallel
+  // transport from `first_normal` (a twist-free, "Bishop" frame).
+  static std::vector<Mat3> parallel_transport_frames(const std::vector<Vec3>& nodes,
+                                                     const Vec3& first_normal);
+  int elements() const { return static_cast<int>(frames.size()); }
+};
+
+struct RodInfo {
+  std::string name;
+  int elements = 0;
+  int offset = 0;  // o_r, first slot
+  bool clamped_root = false;
+  ElasticConstants elastic{};
+  SectionProperties section{};
+  RetardationTimes tau{};
+};
+
+// Constant during a run (STYLE.md "Model"). Field shapes: [slots] unless [3]/[9].
+template <class T>
+struct Model {
+  Array<T> node_mass, node_inv_mass;
+  Array<T> elem_rest_length;
+  std::array<Array<T>, 3> elem_stiffness, elem_rest_strain, elem_tau, elem_inertia,
+      elem_inv_inertia;
+  Array<T> vor_rest_length;
+  std::array<Array<T>, 3> vor_stiffness, vor_rest_curvature, vor_tau;
+  vec3<T> gravity{T(0), T(0), T(0)};
+};
+
+// The only thing a checkpoint needs; hashed by tests.
+template <class T>
+struct State {
+  std::array<Array<T>, 3> node_x, node_v;
+  std::array<Array<T>, 9> elem_Q;
+  std::array<Array<T>, 3> elem_w;
+  double time = 0;
+  std::int64_t steps = 0;
+};
+
+// Derived each step (see kernels/views.h ScratchView for who writes what).
+template <class T>
+struct Scratch {
+  std::array<Array<T>, 3> elem_force, elem_couple, vor_moment, vor_kxm;
+};
+
+// Dead external loads in the lab frame, set by the user between steps.
+template <class T>
+struct Loads {
+  std::array<Array<T>, 3> node_force, elem_couple;
+};
+
+template <class T>
+class RodBatch {
+ public:
+  Model<T> model;
+  State<T> state;
+  Scratch<T> scratch;
+  Loads<T> loads;
+  std::vector<RodInfo> rods;
+
+  int rod_count() const { return static_cast<int>(rods.size()); }
+  int slots() const { return slots_; }
+  std::int64_t element_count() const { return element_count_; }
+  int elements(int rod) const { return rods[rod].elements; }
+  int node_index(int rod, int node) const { return rods[rod].offset + 1 + node; }
+  int elem_index(int rod, int element) const { return rods[rod].offset + 1 + element; }
+  // interior Voronoi point j ∈ [0, n−1) joins elements j and j+1
+  int vor_index(int rod, int j) const { return rods[rod].offset + 2 + j; }
+  int root_vor_index(int rod) const { return rods[rod].offset + 1; }
+
+  Vec3 position(int rod, int node) const;
+  Vec3 velocity(int rod, int node) const;
+  Mat3 frame(int rod, int element) const;
+  Vec3 angular_velocity(int rod, int element) const;  // material components
+  void set_velocity(int rod, int node, const Vec3& v);
+  void set_angular_velocity(int rod, int element, const Vec3& w);
+  void set_node_force(int rod, int node, const Vec3& f);         // N, lab frame
+  void set_element_couple(int rod, int element, const Vec3& c);  // N·m, lab frame
+  void set_gravity(const Vec3& g);
+  // Bytes held by model, state, scratch and loads.
+  std::size_t bytes() const;
+
+  ModelView<T> model_view() const;
+  StateView<T> state_view();
+  ConstStateView<T> state_view() const;
+  ScratchView<T> scratch_view();
+  ConstScratchView<T> scratch_view() const;
+  LoadsView<T> loads_view() const;
+
+  // Used by build_batch.
+  void allocate(int slots, std::int64_t elements);
+
+ private:
+  int slots_ = 0;
+  std::int64_t element_count_ = 0;
+};
+
+// Validates every rod (InputError naming rod and field) and lays them out.
+template <class T>
+RodBatch<T> build_batch(const std::vector<RodSpec>& rods, const Vec3& gravity = {0, 0, 0});
+
+extern template class RodBatch<float>;
+extern template class RodBatch<double>;
+extern template RodBatch<float> build_batch<float>(const std::vector<RodSpec>&, const Vec3&);
+extern template RodBatch<double> build_batch<double>(const std::vector<RodSpec>&, const Vec3&);
+
+}  // namespace manyrods

@@ -1,0 +1,69 @@
+// kernels/cuda_check.cu — compiles every per-index kernel inside a __global__
+// wrapper, in float and double, with all terms on and with all optional terms
+// off. It exists so that host-only code (STL, exceptions, Eigen, allocation)
+// cannot creep into kernels/: such code fails to compile here. Running the
+// kernels on a GPU is a later step; nothing here is launched.
+#include "kernels/energy.h"
+
+namespace manyrods {
+namespace {
+
+constexpr Terms kBare{false, false, true, false, false, false, false};
+
+template <unsigned kMask, class T>
+__global__ void stage_kernel(int slots, ModelView<T> m, ConstStateView<T> s, ScratchView<T> out) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  constexpr Terms kT = terms_from_mask(kMask);
+  if (k >= slots) return;
+  element_stage<kT>(k, m, s, out);
+  voronoi_stage<kT>(k, m, s, out);
+}
+
+template <unsigned kMask, class T>
+__global__ void kick_kernel(int slots, T h, ModelView<T> m, LoadsView<T> l, ConstScratchView<T> sc,
+                            StateView<T> s) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  constexpr Terms kT = terms_from_mask(kMask);
+  if (k >= slots) return;
+  dynamic_node<kT>(k, h, m, l, sc, s);
+  dynamic_element<kT>(k, h, m, l, sc, s);
+}
+
+template <class T>
+__global__ void drift_kernel(int slots, T h, StateView<T> s) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= slots) return;
+  kinematic_node(k, h, s);
+  kinematic_element(k, h, s);
+}
+
+template <unsigned kMask, class T>
+__global__ void energy_kernel(int slots, ModelView<T> m, LoadsView<T> l, ConstStateView<T> s, T* out) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  constexpr Terms kT = terms_from_mask(kMask);
+  if (k >= slots) return;
+  out[k] = node_kinetic_energy(k, m, s) + element_kinetic_energy(k, m, s) +
+           element_elastic_energy<kT>(k, m, s) + voronoi_elastic_energy<kT>(k, m, s) +
+           element_dissipation<kT>(k, m, s) + voronoi_dissipation<kT>(k, m, s) +
+           node_potential_energy<kT>(k, m, l, s);
+}
+
+template <Terms kT, class T>
+void instantiate() {
+  constexpr unsigned mask = terms_mask(kT);
+  (void)&stage_kernel<mask, T>;
+  (void)&kick_kernel<mask, T>;
+  (void)&drift_kernel<T>;
+  (void)&energy_kernel<mask, T>;
+}
+
+}  // namespace
+
+void cuda_check_instantiate_all() {
+  instantiate<kAllTerms, float>();
+  instantiate<kAllTerms, double>();
+  instantiate<kBare, float>();
+  instantiate<kBare, double>();
+}
+
+}  // namespace manyrods

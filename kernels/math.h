@@ -1,0 +1,198 @@
+// kernels/math.h — small POD vectors and rotations for per-index kernels.
+//
+// Conventions (used everywhere in manyrods):
+//   * A frame Q is a 3×3 matrix whose ROWS are the directors d1, d2, d3.
+//     Q maps lab components to material components: a_material = Q a_lab.
+//   * Angular velocity ω is stored in material components. With
+//     ḋ_k = ω_lab × d_k one gets  Q̇ = −[ω]× Q, so a step of length h is
+//     Q ← exp(−[hω]×) Q  (exact for constant ω).
+//   * rotation_log(R) returns ψ with R = exp([ψ]×), |ψ| ∈ [0, π].
+//
+// Every function here is MANYRODS_HD inline: it compiles as host code and as
+// CUDA device code. No STL, no exceptions, no allocation.
+//
+// reads: arguments only  writes: return value only
+#pragma once
+
+#include <cmath>
+
+#if defined(__CUDACC__)
+#define MANYRODS_HD __host__ __device__
+#else
+#define MANYRODS_HD
+#endif
+
+namespace manyrods {
+
+template <class T>
+struct vec3 {
+  T x, y, z;
+};
+
+// Row-major 3×3: m[3*i + j] is row i, column j.
+template <class T>
+struct mat3 {
+  T m[9];
+};
+
+template <class T>
+MANYRODS_HD inline vec3<T> operator+(vec3<T> a, vec3<T> b) {
+  return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+template <class T>
+MANYRODS_HD inline vec3<T> operator-(vec3<T> a, vec3<T> b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+template <class T>
+MANYRODS_HD inline vec3<T> operator-(vec3<T> a) {
+  return {-a.x, -a.y, -a.z};
+}
+template <class T>
+MANYRODS_HD inline vec3<T> operator*(T s, vec3<T> a) {
+  return {s * a.x, s * a.y, s * a.z};
+}
+template <class T>
+MANYRODS_HD inline vec3<T> hadamard(vec3<T> a, vec3<T> b) {
+  return {a.x * b.x, a.y * b.y, a.z * b.z};
+}
+template <class T>
+MANYRODS_HD inline T dot(vec3<T> a, vec3<T> b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+template <class T>
+MANYRODS_HD inline vec3<T> cross(vec3<T> a, vec3<T> b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+template <class T>
+MANYRODS_HD inline T norm(vec3<T> a) {
+  return std::sqrt(dot(a, a));
+}
+
+// Q a
+template <class T>
+MANYRODS_HD inline vec3<T> mul(const mat3<T>& q, vec3<T> a) {
+  return {q.m[0] * a.x + q.m[1] * a.y + q.m[2] * a.z,
+          q.m[3] * a.x + q.m[4] * a.y + q.m[5] * a.z,
+          q.m[6] * a.x + q.m[7] * a.y + q.m[8] * a.z};
+}
+// Qᵀ a
+template <class T>
+MANYRODS_HD inline vec3<T> mul_transpose(const mat3<T>& q, vec3<T> a) {
+  return {q.m[0] * a.x + q.m[3] * a.y + q.m[6] * a.z,
+          q.m[1] * a.x + q.m[4] * a.y + q.m[7] * a.z,
+          q.m[2] * a.x + q.m[5] * a.y + q.m[8] * a.z};
+}
+// A B
+template <class T>
+MANYRODS_HD inline mat3<T> mul(const mat3<T>& a, const mat3<T>& b) {
+  mat3<T> c;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      c.m[3 * i + j] = a.m[3 * i] * b.m[j] + a.m[3 * i + 1] * b.m[3 + j] +
+                       a.m[3 * i + 2] * b.m[6 + j];
+  return c;
+}
+// A Bᵀ
+template <class T>
+MANYRODS_HD inline mat3<T> mul_transpose(const mat3<T>& a, const mat3<T>& b) {
+  mat3<T> c;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      c.m[3 * i + j] = a.m[3 * i] * b.m[3 * j] + a.m[3 * i + 1] * b.m[3 * j + 1] +
+                       a.m[3 * i + 2] * b.m[3 * j + 2];
+  return c;
+}
+
+// Coefficients of exp([w]×) = I + a [w]× + b [w]×², θ = |w|:
+// a = sin θ / θ, b = (1 − cos θ)/θ². Taylor series below θ² < 1e-2, where the
+// truncation error (θ⁸/9! for a) is far below double round-off.
+template <class T>
+MANYRODS_HD inline void exp_coefficients(T theta2, T& a, T& b) {
+  if (theta2 < T(1e-2)) {
+    a = T(1) - theta2 / T(6) * (T(1) - theta2 / T(20) * (T(1) - theta2 / T(42)));
+    b = T(0.5) * (T(1) - theta2 / T(12) * (T(1) - theta2 / T(30) * (T(1) - theta2 / T(56))));
+  } else {
+    const T theta = std::sqrt(theta2);
+    a = std::sin(theta) / theta;
+    b = (T(1) - std::cos(theta)) / theta2;
+  }
+}
+
+// exp([w]×), Rodrigues' formula.
+template <class T>
+MANYRODS_HD inline mat3<T> rotation_exp(vec3<T> w) {
+  T a, b;
+  exp_coefficients(dot(w, w), a, b);
+  const T xx = w.x * w.x, yy = w.y * w.y, zz = w.z * w.z;
+  const T xy = w.x * w.y, xz = w.x * w.z, yz = w.y * w.z;
+  mat3<T> r;
+  r.m[0] = T(1) - b * (yy + zz);
+  r.m[1] = -a * w.z + b * xy;
+  r.m[2] = a * w.y + b * xz;
+  r.m[3] = a * w.z + b * xy;
+  r.m[4] = T(1) - b * (xx + zz);
+  r.m[5] = -a * w.x + b * yz;
+  r.m[6] = -a * w.y + b * xz;
+  r.m[7] = a * w.x + b * yz;
+  r.m[8] = T(1) - b * (xx + yy);
+  return r;
+}
+
+// ψ = log(R) as a rotation vector, R = exp([ψ]×), robust on all of SO(3).
+// θ = atan2(sin θ, cos θ) from the skew and trace parts (no acos, which loses
+// half the digits near 0 and π). Near θ = π the skew part vanishes and the
+// axis comes from the symmetric part R + Rᵀ = 2cosθ I + 2(1 − cosθ) u uᵀ.
+// Also returns θ, sin θ, cos θ for callers that need them.
+template <class T>
+MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) {
+  const vec3<T> axial = {T(0.5) * (r.m[7] - r.m[5]), T(0.5) * (r.m[2] - r.m[6]),
+                         T(0.5) * (r.m[3] - r.m[1])};  // = sin θ · u
+  s = norm(axial);
+  c = T(0.5) * (r.m[0] + r.m[4] + r.m[8] - T(1));
+  theta = std::atan2(s, c);
+  if (c > T(-0.9)) {
+    // θ/sin θ, with its series near 0 (θ² < 1e-2: error θ⁸ terms, < 1e-17).
+    const T t2 = theta * theta;
+    const T f = t2 < T(1e-2) ? T(1) + t2 / T(6) * (T(1) + T(7) / T(60) * t2) : theta / s;
+    return f * axial;
+  }
+  // θ > ~2.69 rad: axis from the symmetric part, sign from the skew part.
+  const T omc = T(1) - c;
+  const T d0 = (r.m[0] - c) / omc, d1 = (r.m[4] - c) / omc, d2 = (r.m[8] - c) / omc;  // u_i²
+  vec3<T> u;
+  if (d0 >= d1 && d0 >= d2) {
+    const T ux = std::sqrt(d0 > T(0) ? d0 : T(0));
+    u = {ux, T(0.5) * (r.m[1] + r.m[3]) / (omc * ux), T(0.5) * (r.m[2] + r.m[6]) / (omc * ux)};
+  } else if (d1 >= d2) {
+    const T uy = std::sqrt(d1 > T(0) ? d1 : T(0));
+    u = {T(0.5) * (r.m[1] + r.m[3]) / (omc * uy), uy, T(0.5) * (r.m[5] + r.m[7]) / (omc * uy)};
+  } else {
+    const T uz = std::sqrt(d2 > T(0) ? d2 : T(0));
+    u = {T(0.5) * (r.m[2] + r.m[6]) / (omc * uz), T(0.5) * (r.m[5] + r.m[7]) / (omc * uz), uz};
+  }
+  const T un = norm(u);
+  u = (T(1) / un) * u;
+  if (dot(u, axial) < T(0)) u = -u;
+  return theta * u;
+}
+
+// J_r(ψ)⁻¹ v, the inverse right Jacobian of exp on SO(3):
+//   J_r⁻¹ = I + ½[ψ]× + γ(θ)[ψ]×²,  γ = 1/θ² − (1 + cos θ)/(2 θ sin θ).
+// If R(t) = exp([ψ(t)]×) then Rᵀ Ṙ = [J_r(ψ) ψ̇]×, so ψ̇ = J_r⁻¹ (Rᵀ Ṙ)^∨.
+// γ = 1/12 + θ²/720 + θ⁴/30240 + θ⁶/1209600 + O(θ⁸) (series of cot θ/2) is
+// used below θ = 0.5 (next term < 1e-10 relative). Above, the form
+// 1/θ² − sin θ/(2θ(1 − cos θ)) stays finite up to θ = π.
+template <class T>
+MANYRODS_HD inline vec3<T> inverse_right_jacobian_apply(vec3<T> psi, T theta, T s, T c, vec3<T> v) {
+  T gamma;
+  const T t2 = theta * theta;
+  if (t2 < T(0.25)) {
+    gamma = T(1) / T(12) + t2 * (T(1) / T(720) + t2 * (T(1) / T(30240) + t2 / T(1209600)));
+  } else {
+    gamma = T(1) / t2 - s / (T(2) * theta * (T(1) - c));
+  }
+  const vec3<T> pv = cross(psi, v);
+  return v + T(0.5) * pv + gamma * cross(psi, pv);
+}
+
+}  // namespace manyrods

@@ -1,0 +1,41 @@
+// kernels/terms.h — which physical terms a step includes (DESIGN.md §5).
+//
+// Terms is a structural type used as a template argument: a term that is off
+// is removed at compile time, so a scene pays nothing for it. "Off" means the
+// term contributes no force or couple (its stiffness and viscosity act as
+// zero); it is not a constraint. Switching shear or stretch off therefore
+// removes a restoring force — the inextensible/unshearable limit is a
+// different model (see README, "Stiff rods").
+//
+// reads: nothing  writes: nothing
+#pragma once
+
+#include "kernels/math.h"
+
+namespace manyrods {
+
+struct Terms {
+  bool shear = true;         // σ1, σ2: transverse shear force
+  bool stretch = true;       // σ3: axial force
+  bool bend = true;          // κ1, κ2: bending moment
+  bool twist = true;         // κ3: twisting moment
+  bool kelvin_voigt = true;  // viscous parts of force and moment (seed eq. 1)
+  bool gravity = true;       // node mass · g
+  bool loads = true;         // user point forces (nodes) and couples (elements)
+};
+
+inline constexpr Terms kAllTerms{};
+
+// Terms as a bit mask (bit 0 shear … bit 6 loads), for places that cannot take
+// a class-type template argument (CUDA __global__ templates).
+MANYRODS_HD constexpr unsigned terms_mask(Terms t) {
+  return unsigned(t.shear) | unsigned(t.stretch) << 1 | unsigned(t.bend) << 2 |
+         unsigned(t.twist) << 3 | unsigned(t.kelvin_voigt) << 4 | unsigned(t.gravity) << 5 |
+         unsigned(t.loads) << 6;
+}
+MANYRODS_HD constexpr Terms terms_from_mask(unsigned m) {
+  return {bool(m & 1), bool(m & 2), bool(m & 4), bool(m & 8), bool(m & 16), bool(m & 32),
+          bool(m & 64)};
+}
+
+}  // namespace manyrods
