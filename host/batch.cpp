@@ -72,6 +72,8 @@ void validate_rod(const RodSpec& s) {
     validate_frame(s.frames[e], "frames[" + std::to_string(e) + "]");
   }
   if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
+  if (!std::isfinite(s.shear_stretch_scale) || !(s.shear_stretch_scale > 0))
+    fail("shear_stretch_scale = " + std::to_string(s.shear_stretch_scale) + ": must be a finite number > 0");
   auto check_vectors = [](const std::vector<Vec3>& v, std::size_t need, const char* name) {
     if (v.empty()) return;
     if (v.size() != need)
@@ -347,7 +349,8 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     const ElasticConstants& c = info.elastic;
     const SectionProperties& p = info.section;
     const double tS = info.tau.shear, tE = info.tau.extension;
-    const Vec3 cf = {p.shear_factor1 * c.G * p.area, p.shear_factor2 * c.G * p.area, c.E * p.area};
+    const double f = s.shear_stretch_scale;
+    const Vec3 cf = {f * p.shear_factor1 * c.G * p.area, f * p.shear_factor2 * c.G * p.area, f * c.E * p.area};
     const Vec3 cm = {c.E * p.I1, c.E * p.I2, c.G * p.torsion_constant};
     std::vector<double> len(n);
     std::vector<EM3> q(n);

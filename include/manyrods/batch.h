@@ -40,6 +40,9 @@ struct RodSpec {
   Section section;
   Material material;
   Damping damping;
+  // Multiplies C_F = (κ1GA, κ2GA, EA), e.g. 1e4 for a nearly inextensible,
+  // unshearable rod (CASES 1b). The viscous V_F scales with it.
+  double shear_stretch_scale = 1;
   bool clamped_root = false;          // node 0 fixed, frame fixed at s = 0
   std::optional<Mat3> root_frame;     // clamp frame at s = 0 (default: frames[0])
   // Rest shape. Empty = the given geometry is the rest shape (unstressed).

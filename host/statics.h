@@ -1,0 +1,154 @@
+// host/statics.h — static equilibrium of the discrete rods by Newton's method.
+//
+// Unknowns: the position of every free node and a rotation increment φ of
+// every element frame (Q ← exp(−[φ]×) Q, material components). Residual: the
+// generalized forces of host/step.h at zero velocity (node forces, element
+// couples). Rods are independent, so each rod is solved on its own with a
+// dense Jacobian from central differences (6n × 6n; n ≲ 1,000). Loads
+// (gravity, point forces and couples) are ramped in `load_steps` equal steps
+// so that large deflections are reached along the equilibrium path.
+//
+// This is an analysis tool (statics for tests, initial states for demos), not
+// part of the time step.
+#pragma once
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <vector>
+
+#include "host/step.h"
+
+namespace manyrods {
+
+struct StaticOptions {
+  int load_steps = 10;
+  int max_newton_iterations = 50;
+  double tolerance = 1e-10;  // on |Δx|/L and |Δφ| (rad), the Newton update
+  double max_update = 0.05;  // cap on one update (same measure)
+};
+
+struct StaticResult {
+  bool converged = true;
+  int iterations = 0;       // total Newton iterations
+  double last_update = 0;   // size of the last Newton update
+};
+
+namespace detail {
+
+struct RodDofs {
+  std::vector<int> node_slots;  // free nodes
+  std::vector<int> elem_slots;  // all elements
+  int size() const { return 3 * int(node_slots.size() + elem_slots.size()); }
+};
+
+template <Terms kT>
+Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
+                                std::array<Array<double>, 3>& c) {
+  double* fp[3] = {f[0].data(), f[1].data(), f[2].data()};
+  double* cp[3] = {c[0].data(), c[1].data(), c[2].data()};
+  generalized_forces<kT>(b, fp, cp);
+  Eigen::VectorXd r(d.size());
+  int i = 0;
+  for (int k : d.node_slots)
+    for (int a = 0; a < 3; ++a) r[i++] = f[a][k];
+  for (int k : d.elem_slots)
+    for (int a = 0; a < 3; ++a) r[i++] = c[a][k];
+  return r;
+}
+
+inline void apply_dofs(RodBatch<double>& b, const RodDofs& d, const Eigen::VectorXd& dx) {
+  int i = 0;
+  for (int k : d.node_slots)
+    for (int a = 0; a < 3; ++a) b.state.node_x[a][k] += dx[i++];
+  for (int k : d.elem_slots) {
+    const vec3<double> phi = {dx[i], dx[i + 1], dx[i + 2]};
+    i += 3;
+    mat3<double> q;
+    for (int j = 0; j < 9; ++j) q.m[j] = b.state.elem_Q[j][k];
+    q = mul(rotation_exp(-phi), q);
+    for (int j = 0; j < 9; ++j) b.state.elem_Q[j][k] = q.m[j];
+  }
+}
+
+}  // namespace detail
+
+// Solves for static equilibrium under the batch's current loads and gravity,
+// starting from the current state. Velocities are set to zero.
+template <Terms kT = kAllTerms>
+StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt = {}) {
+  constexpr Terms kStatic = [] {
+    Terms t = kT;
+    t.kelvin_voigt = false;  // no motion, no viscous force
+    return t;
+  }();
+  for (auto* a : {&b.state.node_v, &b.state.elem_w})
+    for (auto& x : *a)
+      for (std::size_t k = 0; k < x.size(); ++k) x[k] = 0;
+  // remember full loads, then ramp
+  const Loads<double> full_loads = b.loads;
+  const vec3<double> full_g = b.model.gravity;
+  std::array<Array<double>, 3> f, c;
+  for (int a = 0; a < 3; ++a) {
+    f[a].resize(b.slots(), 0.0);
+    c[a].resize(b.slots(), 0.0);
+  }
+  StaticResult res;
+  for (int r = 0; r < b.rod_count(); ++r) {
+    detail::RodDofs d;
+    const int n = b.elements(r);
+    double length = 0;
+    for (int e = 0; e < n; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
+    for (int j = 0; j <= n; ++j)
+      if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
+    for (int e = 0; e < n; ++e) d.elem_slots.push_back(b.elem_index(r, e));
+    const int m = d.size();
+    const int nn = 3 * int(d.node_slots.size());
+    for (int ls = 1; ls <= opt.load_steps; ++ls) {
+      const double lambda = double(ls) / opt.load_steps;
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < b.slots(); ++k) {
+          b.loads.node_force[a][k] = lambda * full_loads.node_force[a][k];
+          b.loads.elem_couple[a][k] = lambda * full_loads.elem_couple[a][k];
+        }
+      b.model.gravity = lambda * full_g;
+      bool ok = false;
+      for (int it = 0; it < opt.max_newton_iterations; ++it) {
+        const Eigen::VectorXd r0 = detail::static_residual<kStatic>(b, d, f, c);
+        Eigen::MatrixXd J(m, m);
+        for (int col = 0; col < m; ++col) {
+          const double h = col < nn ? 1e-6 * length : 1e-6;
+          Eigen::VectorXd e = Eigen::VectorXd::Zero(m);
+          e[col] = h;
+          detail::apply_dofs(b, d, e);
+          const Eigen::VectorXd rp = detail::static_residual<kStatic>(b, d, f, c);
+          e[col] = -2 * h;
+          detail::apply_dofs(b, d, e);
+          const Eigen::VectorXd rm = detail::static_residual<kStatic>(b, d, f, c);
+          e[col] = h;
+          detail::apply_dofs(b, d, e);
+          J.col(col) = (rp - rm) / (2 * h);
+        }
+        // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r.
+        Eigen::VectorXd dq = J.colPivHouseholderQr().solve(-r0);
+        const double upd = std::max(dq.head(nn).cwiseAbs().maxCoeff() / length,
+                                    dq.tail(m - nn).cwiseAbs().maxCoeff());
+        // Trust region: a full Newton step far from the solution can jump to
+        // another branch of the (non-convex) equilibrium problem; cap it.
+        if (upd > opt.max_update) dq *= opt.max_update / upd;
+        detail::apply_dofs(b, d, dq);
+        ++res.iterations;
+        res.last_update = upd;
+        if (upd < opt.tolerance) {
+          ok = true;
+          break;
+        }
+      }
+      if (!ok) res.converged = false;
+    }
+  }
+  b.loads = full_loads;
+  b.model.gravity = full_g;
+  return res;
+}
+
+}  // namespace manyrods

@@ -1,0 +1,36 @@
+// tests/cases.h — the rods of ../shared/CASES.md, built once for all tests.
+#pragma once
+
+#include <cmath>
+#include <numbers>
+
+#include "manyrods/manyrods.h"
+
+namespace manyrods::cases {
+
+// Seed cantilever (CASES.md, seed §5): L = 0.3 m, 1 cm × 1 cm square,
+// ρ = 1000 kg/m³, E = 1 MPa, ν = 0.3, clamped at s = 0, along +e3 with
+// d1 = e1, straight and untwisted at rest.
+inline constexpr double kL = 0.3, kA = 0.01, kRho = 1000, kE = 1e6, kNu = 0.3;
+inline constexpr double kI = kA * kA * kA * kA / 12;  // 8.3333e-10 m⁴
+inline constexpr double kEI = kE * kI;                // 8.3333e-4 N·m²
+inline constexpr double kG = kE / (2 * (1 + kNu));
+
+inline RodSpec seed_cantilever(int elements, Damping damping = Damping::none()) {
+  RodSpec s = RodSpec::straight({0, 0, 0}, {0, 0, 1}, {1, 0, 0}, kL, elements);
+  s.name = "seed cantilever";
+  s.section = Section::rectangle(kA, kA);
+  s.material.density = kRho;
+  s.material.youngs_modulus = kE;
+  s.material.poisson_ratio = kNu;
+  s.damping = damping;
+  s.clamped_root = true;
+  return s;
+}
+
+// Euler–Bernoulli clamped–free bending frequencies, ω_k = (β_k L)² √(EI/(ρ A L⁴)).
+inline double euler_bernoulli_omega(double beta_l) {
+  return beta_l * beta_l * std::sqrt(kEI / (kRho * kA * kA * kL * kL * kL * kL));
+}
+
+}  // namespace manyrods::cases
