@@ -241,6 +241,8 @@ std::size_t RodBatch<T>::bytes() const {
                   &scratch.vor_moment, &scratch.vor_kxm, &loads.node_force, &loads.elem_couple})
     for (const auto& x : *a) b += x.bytes();
   for (const auto& x : state.elem_Q) b += x.bytes();
+  for (const auto& x : scratch.visc_G) b += x.size() ? x.bytes() : 0;
+  for (const auto& x : scratch.visc_g) b += x.size() ? x.bytes() : 0;
   return b;
 }
 
@@ -307,6 +309,20 @@ LoadsView<T> RodBatch<T>::loads_view() const {
   for (int i = 0; i < 3; ++i) {
     v.node_force[i] = loads.node_force[i].data();
     v.elem_couple[i] = loads.elem_couple[i].data();
+  }
+  return v;
+}
+
+template <class T>
+ImplicitScratchView<T> RodBatch<T>::implicit_scratch_view() {
+  ImplicitScratchView<T> v{};
+  for (int i = 0; i < 36; ++i) {
+    if (scratch.visc_G[i].size() != std::size_t(slots_)) scratch.visc_G[i].resize(slots_, T(0));
+    v.G[i] = scratch.visc_G[i].data();
+  }
+  for (int i = 0; i < 6; ++i) {
+    if (scratch.visc_g[i].size() != std::size_t(slots_)) scratch.visc_g[i].resize(slots_, T(0));
+    v.g[i] = scratch.visc_g[i].data();
   }
   return v;
 }

@@ -5,10 +5,13 @@
 //   2. strains and total resultants at (x, Q)_{n+½} with the rates from
 //      (v, ω)_n                                           element_stage, voronoi_stage
 //   3. kick h:    v += h m⁻¹ F,  ω += h J⁻¹ C             dynamic_node/element
+//   3b. (Viscous::implicit) (M + hD) u⁺ = M u               viscous_implicit_rod
 //   4. drift ½h                                           kinematic_node/element
-// Second order for the elastic (conservative) part. The Kelvin–Voigt force
-// uses the velocities at the start of the kick, which makes the viscous part
-// first order in h; its explicit stability limit is dt ≲ 2/(τ ω_max²).
+// Second order for the elastic (conservative) part, first order for the
+// Kelvin–Voigt part in both treatments: Viscous::explicit_rate evaluates the
+// viscous resultants with the velocities at the start of the kick (stable for
+// dt ≲ 2/(τ ω_max²)); Viscous::implicit (the default) integrates them by
+// backward Euler after the elastic kick (stable for any τ).
 #pragma once
 
 #include <cmath>
@@ -55,12 +58,40 @@ void kick(RodBatch<T>& b, T h, const Exec& ex) {
   });
 }
 
+// How the Kelvin–Voigt force is integrated.
+//   implicit:      backward Euler in the velocities after the elastic kick
+//                  (kernels/viscous_implicit.h): stable for any τ, one
+//                  block-tridiagonal solve per rod and step.
+//   explicit_rate: the viscous resultants use the rates at the start of the
+//                  kick; stable only for dt ≲ 2/(τ ω_max²). The accuracy
+//                  reference.
+enum class Viscous { implicit, explicit_rate };
+
+// Stage 3b: the implicit viscous update, rod by rod.
+template <Terms kT, class T>
+void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
+  const ModelView<T> m = b.model_view();
+  const StateView<T> s = b.state_view();
+  const ImplicitScratchView<T> sc = b.implicit_scratch_view();
+  const int rods = b.rod_count();
+#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 16) if (ex.threads > 1 && rods > 1)
+  for (int r = 0; r < rods; ++r)
+    viscous_implicit_rod<kT>(b.rods[r].offset + 1, b.rods[r].elements + 1, h, m, s, sc);
+}
+
 // One Position Verlet step of length dt for every rod in the batch.
-template <Terms kT = kAllTerms, class T>
+template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
 void step(RodBatch<T>& b, T dt, const Exec& ex = {}) {
+  constexpr bool kImplicit = kT.kelvin_voigt && kV == Viscous::implicit;
+  constexpr Terms kExplicit = [] {
+    Terms t = kT;
+    if (kImplicit) t.kelvin_voigt = false;
+    return t;
+  }();
   drift(b, T(0.5) * dt, ex);
-  compute_resultants<kT>(b, ex);
-  kick<kT>(b, dt, ex);
+  compute_resultants<kExplicit>(b, ex);
+  kick<kExplicit>(b, dt, ex);
+  if constexpr (kImplicit) viscous_update<kT>(b, dt, ex);
   drift(b, T(0.5) * dt, ex);
   b.state.time += double(dt);
   b.state.steps += 1;

@@ -4,6 +4,7 @@
 // cannot creep into kernels/: such code fails to compile here. Running the
 // kernels on a GPU is a later step; nothing here is launched.
 #include "kernels/energy.h"
+#include "kernels/viscous_implicit.h"
 
 namespace manyrods {
 namespace {
@@ -48,6 +49,15 @@ __global__ void energy_kernel(int slots, ModelView<T> m, LoadsView<T> l, ConstSt
            node_potential_energy<kT>(k, m, l, s);
 }
 
+template <unsigned kMask, class T>
+__global__ void viscous_kernel(int rods, const int* first, const int* cells, T h, ModelView<T> m,
+                               StateView<T> s, ImplicitScratchView<T> sc) {
+  constexpr Terms kT = terms_from_mask(kMask);
+  const int r = blockIdx.x * blockDim.x + threadIdx.x;
+  if (r >= rods) return;
+  viscous_implicit_rod<kT>(first[r], cells[r], h, m, s, sc);
+}
+
 template <Terms kT, class T>
 void instantiate() {
   constexpr unsigned mask = terms_mask(kT);
@@ -55,6 +65,7 @@ void instantiate() {
   (void)&kick_kernel<mask, T>;
   (void)&drift_kernel<T>;
   (void)&energy_kernel<mask, T>;
+  (void)&viscous_kernel<mask, T>;
 }
 
 }  // namespace

@@ -151,9 +151,14 @@ MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) 
   c = T(0.5) * (r.m[0] + r.m[4] + r.m[8] - T(1));
   theta = std::atan2(s, c);
   if (c > T(-0.9)) {
-    // θ/sin θ, with its series near 0 (θ² < 1e-2: error θ⁸ terms, < 1e-17).
+    // θ/sin θ = 1 + θ²/6 + 7θ⁴/360 + 31θ⁶/15120 + …; θ/s itself has no
+    // cancellation, so the series is needed only to avoid 0/0: below θ² = 1e-6
+    // its first omitted term is < 2.1e-21. (It used to be taken below
+    // θ² = 1e-2, where the omitted 31θ⁶/15120 reaches 2e-9 relative: κ was off
+    // by up to 2e-9 and jumped by that much at θ = 0.1;
+    // tests/test_kernels_vs_reference.cpp.)
     const T t2 = theta * theta;
-    const T f = t2 < T(1e-2) ? T(1) + t2 / T(6) * (T(1) + T(7) / T(60) * t2) : theta / s;
+    const T f = t2 < T(1e-6) ? T(1) + t2 / T(6) * (T(1) + T(7) / T(60) * t2) : theta / s;
     return f * axial;
   }
   // θ > ~2.69 rad: axis from the symmetric part, sign from the skew part.
@@ -179,20 +184,54 @@ MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) 
 // J_r(ψ)⁻¹ v, the inverse right Jacobian of exp on SO(3):
 //   J_r⁻¹ = I + ½[ψ]× + γ(θ)[ψ]×²,  γ = 1/θ² − (1 + cos θ)/(2 θ sin θ).
 // If R(t) = exp([ψ(t)]×) then Rᵀ Ṙ = [J_r(ψ) ψ̇]×, so ψ̇ = J_r⁻¹ (Rᵀ Ṙ)^∨.
-// γ = 1/12 + θ²/720 + θ⁴/30240 + θ⁶/1209600 + O(θ⁸) (series of cot θ/2) is
-// used below θ = 0.5 (next term < 1e-10 relative). Above, the form
-// 1/θ² − sin θ/(2θ(1 − cos θ)) stays finite up to θ = π.
+// γ = Σ_{k≥1} |B_2k| θ^(2k−2)/(2k)! = 1/12 + θ²/720 + θ⁴/30240 + θ⁶/1209600
+//     + θ⁸/47900160 + 691θ¹⁰/1307674368000 + θ¹²/74724249600 + O(θ¹⁴)
+// (series of (1 − (θ/2)cot(θ/2))/θ²) is used below θ = 0.5, where the first
+// omitted term is < 3e-17 relative. (Cut after θ⁶ it was off by 8e-11 in γ,
+// 2e-11·|v| in the result, at θ → 0.5: far above double round-off.) Above,
+// the form 1/θ² − sin θ/(2θ(1 − cos θ)) stays finite up to θ = π; with c
+// from the trace its cancellation costs about 2u/θ²·|v| ≤ 8u·|v|.
 template <class T>
 MANYRODS_HD inline vec3<T> inverse_right_jacobian_apply(vec3<T> psi, T theta, T s, T c, vec3<T> v) {
   T gamma;
   const T t2 = theta * theta;
   if (t2 < T(0.25)) {
-    gamma = T(1) / T(12) + t2 * (T(1) / T(720) + t2 * (T(1) / T(30240) + t2 / T(1209600)));
+    gamma = T(1) / T(12) +
+            t2 * (T(1) / T(720) +
+                  t2 * (T(1) / T(30240) +
+                        t2 * (T(1) / T(1209600) +
+                              t2 * (T(1) / T(47900160) +
+                                    t2 * (T(691) / T(1307674368000.0) + t2 / T(74724249600.0))))));
   } else {
     gamma = T(1) / t2 - s / (T(2) * theta * (T(1) - c));
   }
   const vec3<T> pv = cross(psi, v);
   return v + T(0.5) * pv + gamma * cross(psi, pv);
+}
+
+// [a]×, the cross-product matrix: [a]× b = a × b.
+template <class T>
+MANYRODS_HD inline mat3<T> skew(vec3<T> a) {
+  return {{T(0), -a.z, a.y, a.z, T(0), -a.x, -a.y, a.x, T(0)}};
+}
+
+template <class T>
+MANYRODS_HD inline mat3<T> transpose(const mat3<T>& a) {
+  return {{a.m[0], a.m[3], a.m[6], a.m[1], a.m[4], a.m[7], a.m[2], a.m[5], a.m[8]}};
+}
+
+// J_r(ψ)⁻¹ as a matrix (see inverse_right_jacobian_apply).
+template <class T>
+MANYRODS_HD inline mat3<T> inverse_right_jacobian(vec3<T> psi, T theta, T s, T c) {
+  mat3<T> j;
+  const vec3<T> ex = {T(1), T(0), T(0)}, ey = {T(0), T(1), T(0)}, ez = {T(0), T(0), T(1)};
+  const vec3<T> cx = inverse_right_jacobian_apply(psi, theta, s, c, ex);
+  const vec3<T> cy = inverse_right_jacobian_apply(psi, theta, s, c, ey);
+  const vec3<T> cz = inverse_right_jacobian_apply(psi, theta, s, c, ez);
+  j.m[0] = cx.x, j.m[1] = cy.x, j.m[2] = cz.x;
+  j.m[3] = cx.y, j.m[4] = cy.y, j.m[5] = cz.y;
+  j.m[6] = cx.z, j.m[7] = cy.z, j.m[8] = cz.z;
+  return j;
 }
 
 }  // namespace manyrods

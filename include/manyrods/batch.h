@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "kernels/views.h"
+#include "kernels/viscous_implicit.h"
 #include "manyrods/array.h"
 #include "manyrods/material.h"
 
@@ -100,6 +100,10 @@ struct State {
 template <class T>
 struct Scratch {
   std::array<Array<T>, 3> elem_force, elem_couple, vor_moment, vor_kxm;
+  // Block elimination of the implicit viscous update (kernels/viscous_implicit.h);
+  // allocated on first use only.
+  std::array<Array<T>, 36> visc_G;
+  std::array<Array<T>, 6> visc_g;
 };
 
 // Dead external loads in the lab frame, set by the user between steps.
@@ -145,6 +149,7 @@ class RodBatch {
   ScratchView<T> scratch_view();
   ConstScratchView<T> scratch_view() const;
   LoadsView<T> loads_view() const;
+  ImplicitScratchView<T> implicit_scratch_view();  // allocates on first use
 
   // Used by build_batch.
   void allocate(int slots, std::int64_t elements);

@@ -1,0 +1,249 @@
+// kernels/viscous_implicit.h — the Kelvin–Voigt force integrated implicitly,
+// so that the stable step does not depend on τ (DESIGN.md §3).
+//
+// The viscous force is linear in the velocities u = (v, ω) at fixed geometry:
+// with the strain-rate maps σ̇_k = B_k u (element k) and κ̇_k = C_k u
+// (Voronoi k, see kernels/strains.h),
+//   B_k = [ −Q/l̂ (v_k),  [Qe]×/l̂ (ω_k),  Q/l̂ (v_{k+1}) ]
+//   C_k = [ −J_r(ψ)⁻¹/D̂ (ω_{k−1}),  J_r(ψ)⁻¹Rᵀ/D̂ (ω_k) ]
+// the viscous generalized force is −D u with the symmetric, positive
+// semi-definite "viscous stiffness"
+//   D = Σ_k l̂ B_kᵀ V_F B_k + Σ_k D̂ C_kᵀ V_M C_k,
+// i.e. exactly minus the gradient of the dissipation function D_v (seed
+// eq. 11) with respect to u: uᵀ D u = 2·D_v.
+//
+// After the explicit elastic kick u⁻ = u + h M⁻¹ F_elastic, the viscous part
+// is a backward-Euler step at the frozen (half-step) geometry:
+//   (M + h D) u⁺ = M u⁻.
+// Its amplification is (I + h M⁻¹D)⁻¹: every mode decays, for any h and τ
+// (L-stable), so τ no longer limits the step; the price is first-order
+// accuracy in the viscous term (as the explicit lagged rate) and the
+// over-damping of modes with h τ ω² ≳ 1, which the explicit scheme could not
+// step at all.
+//
+// Per rod, ordering the unknowns by cells c = 0 … n (cell c = node c and
+// element c; the tip cell's element is the tip ghost), D is block
+// tridiagonal with 6×6 blocks: element k couples cells k and k+1, Voronoi k
+// couples cells k−1 and k. The system is solved by block Thomas elimination
+// with 6×6 Cholesky factors, one rod per call: data-parallel over rods.
+// Fixed unknowns (clamped node, ghost element) keep u = 0.
+//
+// reads: model, state geometry and velocities  writes: node_v, elem_w of the
+// rod, and the elimination scratch G (36 per slot) and g (6 per slot)
+#pragma once
+
+#include "kernels/resultants.h"
+#include "kernels/strains.h"
+
+namespace manyrods {
+
+template <class T>
+struct ImplicitScratchView {
+  T* G[36];  // [36][slots] Â_c⁻¹ U_c, row-major 6×6
+  T* g[6];   // [6][slots]  Â_c⁻¹ ŷ_c
+};
+
+namespace viscous_detail {
+
+template <class T>
+struct Block6 {
+  T a[36];
+};
+
+// Adds s · Xᵀ W Y (X, Y 3×3, W diagonal) into block b at (row0, col0).
+template <class T>
+MANYRODS_HD inline void add_xtwy(Block6<T>& b, int row0, int col0, const mat3<T>& x, vec3<T> w,
+                                 const mat3<T>& y, T s) {
+  const T ww[3] = {w.x, w.y, w.z};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      T acc = T(0);
+      for (int l = 0; l < 3; ++l) acc += x.m[3 * l + i] * ww[l] * y.m[3 * l + j];
+      b.a[6 * (row0 + i) + col0 + j] += s * acc;
+    }
+}
+
+// In-place Cholesky of an SPD 6×6 (lower triangle used).
+template <class T>
+MANYRODS_HD inline void cholesky6(Block6<T>& l) {
+  for (int j = 0; j < 6; ++j) {
+    T d = l.a[6 * j + j];
+    for (int k = 0; k < j; ++k) d -= l.a[6 * j + k] * l.a[6 * j + k];
+    d = std::sqrt(d);
+    l.a[6 * j + j] = d;
+    for (int i = j + 1; i < 6; ++i) {
+      T v = l.a[6 * i + j];
+      for (int k = 0; k < j; ++k) v -= l.a[6 * i + k] * l.a[6 * j + k];
+      l.a[6 * i + j] = v / d;
+    }
+  }
+}
+
+template <class T>
+MANYRODS_HD inline void cholesky6_solve(const Block6<T>& l, T* x) {
+  for (int i = 0; i < 6; ++i) {
+    T v = x[i];
+    for (int k = 0; k < i; ++k) v -= l.a[6 * i + k] * x[k];
+    x[i] = v / l.a[6 * i + i];
+  }
+  for (int i = 5; i >= 0; --i) {
+    T v = x[i];
+    for (int k = i + 1; k < 6; ++k) v -= l.a[6 * k + i] * x[k];
+    x[i] = v / l.a[6 * i + i];
+  }
+}
+
+// Element k's viscous weight W = l̂ V_F and maps (b1, b2, b3) scaled by l̂.
+template <Terms kT, class T>
+MANYRODS_HD inline void element_maps(int k, const ModelView<T>& m, const ConstStateView<T>& s,
+                                     vec3<T>& w, mat3<T>& b1, mat3<T>& b2, mat3<T>& b3) {
+  const ElementStrain<T> es = element_strain(k, m, s);
+  const T l = m.elem_rest_length[k], il = T(1) / l;
+  const vec3<T> c = load3(m.elem_stiffness, k), tau = load3(m.elem_tau, k);
+  w = {kT.shear ? l * c.x * tau.x : T(0), kT.shear ? l * c.y * tau.y : T(0),
+       kT.stretch ? l * c.z * tau.z : T(0)};
+  for (int i = 0; i < 9; ++i) {
+    b3.m[i] = il * es.Q.m[i];
+    b1.m[i] = -b3.m[i];
+  }
+  const mat3<T> sk = skew(es.Qe);
+  for (int i = 0; i < 9; ++i) b2.m[i] = il * sk.m[i];
+}
+
+// Voronoi k's weight W = D̂ V_M and maps (c1 for ω_{k−1}, c2 for ω_k).
+template <Terms kT, class T>
+MANYRODS_HD inline void voronoi_maps(int k, const ModelView<T>& m, const ConstStateView<T>& s,
+                                     vec3<T>& w, mat3<T>& c1, mat3<T>& c2) {
+  const VoronoiStrain<T> vs = voronoi_strain(k, m, s);
+  const T d = m.vor_rest_length[k], id = T(1) / d;
+  const vec3<T> c = load3(m.vor_stiffness, k), tau = load3(m.vor_tau, k);
+  w = {kT.bend ? d * c.x * tau.x : T(0), kT.bend ? d * c.y * tau.y : T(0),
+       kT.twist ? d * c.z * tau.z : T(0)};
+  const mat3<T> ji = inverse_right_jacobian(vs.psi, vs.theta, vs.s, vs.c);
+  const mat3<T> jirt = mul_transpose(ji, vs.R);
+  for (int i = 0; i < 9; ++i) {
+    c1.m[i] = -id * ji.m[i];
+    c2.m[i] = id * jirt.m[i];
+  }
+}
+
+}  // namespace viscous_detail
+
+// Backward-Euler viscous update of one rod whose cells occupy slots
+// [first, first + cells). Velocities in `s` are u⁻ on entry, u⁺ on exit.
+template <Terms kT, class T>
+MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, const ModelView<T>& m,
+                                             const StateView<T>& s, const ImplicitScratchView<T>& sc) {
+  using namespace viscous_detail;
+  const ConstStateView<T> cs = as_const(s);
+  Block6<T> carry;  // contributions to the next cell's diagonal block
+  for (int i = 0; i < 36; ++i) carry.a[i] = T(0);
+  Block6<T> u_prev;  // U_{c−1}
+  T g_prev[6] = {T(0), T(0), T(0), T(0), T(0), T(0)};
+  Block6<T> G_prev;
+  for (int i = 0; i < 36; ++i) G_prev.a[i] = u_prev.a[i] = T(0);
+  for (int c = 0; c < cells; ++c) {
+    const int k = first + c;
+    Block6<T> A = carry, U;
+    for (int i = 0; i < 36; ++i) {
+      carry.a[i] = T(0);
+      U.a[i] = T(0);
+    }
+    // element k: cells k (v_k, ω_k) and k+1 (v_{k+1})
+    vec3<T> w;
+    mat3<T> b1, b2, b3;
+    element_maps<kT>(k, m, cs, w, b1, b2, b3);
+    add_xtwy(A, 0, 0, b1, w, b1, h);
+    add_xtwy(A, 0, 3, b1, w, b2, h);
+    add_xtwy(A, 3, 0, b2, w, b1, h);
+    add_xtwy(A, 3, 3, b2, w, b2, h);
+    add_xtwy(U, 0, 0, b1, w, b3, h);
+    add_xtwy(U, 3, 0, b2, w, b3, h);
+    add_xtwy(carry, 0, 0, b3, w, b3, h);
+    // Voronoi k+1: cells k (ω_k) and k+1 (ω_{k+1})
+    mat3<T> c1, c2;
+    voronoi_maps<kT>(k + 1, m, cs, w, c1, c2);
+    add_xtwy(A, 3, 3, c1, w, c1, h);
+    add_xtwy(U, 3, 3, c1, w, c2, h);
+    add_xtwy(carry, 3, 3, c2, w, c2, h);
+    // the Voronoi point k (to the previous cell) was added through `carry`,
+    // except at the root, where it joins the clamp frame (ω = 0)
+    if (c == 0) {
+      voronoi_maps<kT>(k, m, cs, w, c1, c2);
+      add_xtwy(A, 3, 3, c2, w, c2, h);
+    }
+    // mass; fixed unknowns (zero inverse mass) become identity rows
+    const T minv[6] = {m.node_inv_mass[k], m.node_inv_mass[k], m.node_inv_mass[k],
+                       m.elem_inv_inertia[0][k], m.elem_inv_inertia[1][k], m.elem_inv_inertia[2][k]};
+    const T mass[6] = {m.node_mass[k], m.node_mass[k], m.node_mass[k],
+                       m.elem_inertia[0][k], m.elem_inertia[1][k], m.elem_inertia[2][k]};
+    const T u[6] = {s.node_v[0][k], s.node_v[1][k], s.node_v[2][k],
+                    s.elem_w[0][k], s.elem_w[1][k], s.elem_w[2][k]};
+    T y[6];
+    for (int i = 0; i < 6; ++i) {
+      A.a[7 * i] += mass[i];
+      y[i] = mass[i] * u[i];
+    }
+    // elimination: Â_c = A_c − U_{c−1}ᵀ G_{c−1},  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1}
+    for (int i = 0; i < 6; ++i) {
+      for (int j = 0; j < 6; ++j) {
+        T acc = T(0);
+        for (int l = 0; l < 6; ++l) acc += u_prev.a[6 * l + i] * G_prev.a[6 * l + j];
+        A.a[6 * i + j] -= acc;
+      }
+      T acc = T(0);
+      for (int l = 0; l < 6; ++l) acc += u_prev.a[6 * l + i] * g_prev[l];
+      y[i] -= acc;
+    }
+    for (int i = 0; i < 6; ++i)
+      if (minv[i] == T(0)) {  // fixed: u = 0, decoupled
+        for (int j = 0; j < 6; ++j) A.a[6 * i + j] = A.a[6 * j + i] = T(0);
+        A.a[7 * i] = T(1);
+        y[i] = T(0);
+        for (int j = 0; j < 6; ++j) U.a[6 * i + j] = T(0);
+      }
+    // the next cell's fixed unknowns: zero their columns of U
+    if (c + 1 < cells) {
+      const int kn = k + 1;
+      const T nmi[6] = {m.node_inv_mass[kn], m.node_inv_mass[kn], m.node_inv_mass[kn],
+                        m.elem_inv_inertia[0][kn], m.elem_inv_inertia[1][kn], m.elem_inv_inertia[2][kn]};
+      for (int j = 0; j < 6; ++j)
+        if (nmi[j] == T(0))
+          for (int i = 0; i < 6; ++i) U.a[6 * i + j] = T(0);
+    }
+    cholesky6(A);
+    cholesky6_solve(A, y);
+    T col[6];
+    for (int j = 0; j < 6; ++j) {
+      for (int i = 0; i < 6; ++i) col[i] = U.a[6 * i + j];
+      cholesky6_solve(A, col);
+      for (int i = 0; i < 6; ++i) G_prev.a[6 * i + j] = col[i];
+    }
+    for (int i = 0; i < 36; ++i) {
+      sc.G[i][k] = G_prev.a[i];
+      u_prev.a[i] = U.a[i];
+    }
+    for (int i = 0; i < 6; ++i) {
+      sc.g[i][k] = y[i];
+      g_prev[i] = y[i];
+    }
+  }
+  // back substitution: u_c = g_c − G_c u_{c+1}
+  T next[6] = {T(0), T(0), T(0), T(0), T(0), T(0)};
+  for (int c = cells - 1; c >= 0; --c) {
+    const int k = first + c;
+    T x[6];
+    for (int i = 0; i < 6; ++i) {
+      T v = sc.g[i][k];
+      for (int j = 0; j < 6; ++j) v -= sc.G[6 * i + j][k] * next[j];
+      x[i] = v;
+    }
+    for (int d = 0; d < 3; ++d) {
+      s.node_v[d][k] = x[d];
+      s.elem_w[d][k] = x[3 + d];
+    }
+    for (int i = 0; i < 6; ++i) next[i] = x[i];
+  }
+}
+
+}  // namespace manyrods
