@@ -111,7 +111,8 @@ void generalized_forces(RodBatch<T>& b, T* const force[3], T* const couple[3], c
   launch(b.slots(), ex, [&](int k) {
     store3(force, k, node_force(k, sc) + node_external_force<kT>(k, m, l));
     const mat3<T> Q = load_frame(s.elem_Q, k);
-    store3(couple, k, element_couple(k, m, s, sc) + element_external_couple<kT>(k, l, Q));
+    store3(couple, k, element_couple(k, sc) + euler_couple(load3(m.elem_inertia, k), load3(s.elem_w, k)) +
+                          element_external_couple<kT>(k, l, Q));
   });
 }
 

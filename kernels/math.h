@@ -192,21 +192,17 @@ MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) 
 // the form 1/θ² − sin θ/(2θ(1 − cos θ)) stays finite up to θ = π; with c
 // from the trace its cancellation costs about 2u/θ²·|v| ≤ 8u·|v|.
 template <class T>
-MANYRODS_HD inline vec3<T> inverse_right_jacobian_apply(vec3<T> psi, T theta, T s, T c, vec3<T> v) {
-  T gamma;
+MANYRODS_HD inline T inverse_right_jacobian_gamma(T theta, T s, T c) {
   const T t2 = theta * theta;
-  if (t2 < T(0.25)) {
-    gamma = T(1) / T(12) +
-            t2 * (T(1) / T(720) +
-                  t2 * (T(1) / T(30240) +
-                        t2 * (T(1) / T(1209600) +
-                              t2 * (T(1) / T(47900160) +
-                                    t2 * (T(691) / T(1307674368000.0) + t2 / T(74724249600.0))))));
-  } else {
-    gamma = T(1) / t2 - s / (T(2) * theta * (T(1) - c));
-  }
+  if (t2 < T(0.25))
+    return T(1) / T(12) + t2 * (T(1) / T(720) + t2 * (T(1) / T(30240) + t2 / T(1209600)));
+  return T(1) / t2 - s / (T(2) * theta * (T(1) - c));
+}
+
+template <class T>
+MANYRODS_HD inline vec3<T> inverse_right_jacobian_apply(vec3<T> psi, T theta, T s, T c, vec3<T> v) {
   const vec3<T> pv = cross(psi, v);
-  return v + T(0.5) * pv + gamma * cross(psi, pv);
+  return v + T(0.5) * pv + inverse_right_jacobian_gamma(theta, s, c) * cross(psi, pv);
 }
 
 // [a]×, the cross-product matrix: [a]× b = a × b.

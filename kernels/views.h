@@ -52,7 +52,7 @@ template <class T>
 struct ScratchView {
   T* elem_force[3];   // [3][slots] N, Qᵀn (lab)          — element_stage
   T* elem_couple[3];  // [3][slots] N·m, (Q e) × n         — element_stage
-  T* vor_moment[3];   // [3][slots] N·m, m (material)      — voronoi_stage
+  T* vor_moment[3];   // [3][slots] N·m, m̃ = J-corrected m — voronoi_stage
   T* vor_kxm[3];      // [3][slots] N·m, D̂ κ × m           — voronoi_stage
 };
 

@@ -105,13 +105,18 @@ std::vector<double> log_decrement_zeta(int n, const std::vector<double>& taus, d
   int j = 0;
   while (md.omega[j] != bend[0]) ++j;
   *omega1 = md.omega[j];
+  // eigenvector sign is arbitrary: choose the one with the tip at +x
+  double sign = 1;
+  for (std::size_t i = 0; i < lin.slot.size(); ++i)
+    if (lin.kind[i] == 0 && lin.axis[i] == 0 && lin.slot[i] == b0.node_index(0, n))
+      sign = md.shapes(i, j) < 0 ? -1 : 1;
   for (int r = 0; r < b.rod_count(); ++r) {
     // the same mode shape in every rod (amplitude: tip ≈ 1e-5 L, linear)
     detail::RodDofs d;
     for (std::size_t i = 0; i < lin.slot.size(); i += 3)
       (lin.kind[i] == 0 ? d.node_slots : d.elem_slots)
           .push_back(lin.slot[i] - b0.rods[0].offset + b.rods[r].offset);
-    detail::apply_dofs(b, d, 1e-6 * md.shapes.col(j));
+    detail::apply_dofs(b, d, sign * 1e-6 * md.shapes.col(j));
   }
   const int R = b.rod_count();
   std::vector<double> x0(R), prev(R), pprev(R), zeta(R, -1);
