@@ -68,7 +68,9 @@ void validate_rod(const RodSpec& s) {
       fail("nodes[" + std::to_string(j) + "] = " + vec_str(s.nodes[j]) + ": not finite");
   for (int e = 0; e < n; ++e) {
     const double l = (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])).norm();
-    if (!(l > 0)) fail("element " + std::to_string(e) + ": zero length (nodes coincide)");
+    if (!(l > 0))
+      fail("nodes[" + std::to_string(e + 1) + "] = " + vec_str(s.nodes[e + 1]) + ": coincides with nodes[" +
+           std::to_string(e) + "] (element " + std::to_string(e) + " has zero length)");
     validate_frame(s.frames[e], "frames[" + std::to_string(e) + "]");
   }
   if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
@@ -213,15 +215,26 @@ void RodBatch<T>::set_angular_velocity(int r, int e, const Vec3& w) {
   const int k = elem_index(r, e);
   for (int d = 0; d < 3; ++d) state.elem_w[d][k] = T(w[d]);
 }
+// "rod r ('name'): field[i] = [..]: why", as build_batch words its errors.
+template <class T>
+static void check_load(const RodBatch<T>& b, int r, int i, int count, const char* field, const Vec3& v) {
+  if (r < 0 || r >= b.rod_count())
+    fail(std::string(field) + ": rod " + std::to_string(r) + " out of range (batch has " +
+         std::to_string(b.rod_count()) + " rods)");
+  const std::string at = "rod " + std::to_string(r) + " ('" + b.rods[r].name + "'): " + field + "[" +
+                         std::to_string(i) + "]";
+  if (i < 0 || i >= count) fail(at + ": index out of range [0, " + std::to_string(count) + ")");
+  if (!finite(v)) fail(at + " = " + vec_str(v) + ": not finite");
+}
 template <class T>
 void RodBatch<T>::set_node_force(int r, int j, const Vec3& f) {
-  if (!finite(f)) fail("rod " + std::to_string(r) + ": node force " + vec_str(f) + " is not finite");
+  check_load(*this, r, j, r >= 0 && r < rod_count() ? elements(r) + 1 : 0, "node_force", f);
   const int k = node_index(r, j);
   for (int d = 0; d < 3; ++d) loads.node_force[d][k] = T(f[d]);
 }
 template <class T>
 void RodBatch<T>::set_element_couple(int r, int e, const Vec3& c) {
-  if (!finite(c)) fail("rod " + std::to_string(r) + ": element couple " + vec_str(c) + " is not finite");
+  check_load(*this, r, e, r >= 0 && r < rod_count() ? elements(r) : 0, "element_couple", c);
   const int k = elem_index(r, e);
   for (int d = 0; d < 3; ++d) loads.elem_couple[d][k] = T(c[d]);
 }

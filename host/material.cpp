@@ -95,6 +95,15 @@ SectionProperties section_properties(const Section& sec, double nu) {
     default:
       throw InputError("section.shape: unknown shape");
   }
+  // DESIGN §1: 0 < κα ≤ 1. Cowper's ellipse formula leaves that range (its
+  // denominator changes sign) for flat ellipses of auxetic materials, e.g.
+  // ν = −0.5 with a semi-axis ratio below about 0.3; a negative shear
+  // stiffness would follow silently, so such input is rejected.
+  for (const double k : {p.shear_factor1, p.shear_factor2})
+    if (!(k > 0 && k <= 1))
+      fail("section.shear_factor", k,
+           "Cowper's shear correction factor for this section with material.poisson_ratio = " +
+               std::to_string(nu) + " lies outside (0, 1] (flat ellipse, poisson_ratio < 0)");
   p.I3 = p.I1 + p.I2;
   return p;
 }

@@ -7,4 +7,5 @@
 #include "kernels/terms.h"
 #include "manyrods/batch.h"
 #include "manyrods/material.h"
+#include "host/stable_dt.h"
 #include "manyrods/step.h"
