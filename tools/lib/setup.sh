@@ -1,0 +1,52 @@
+# tools/lib/setup.sh — shared by tools/run-demo and tools/run-tests: install
+# the Debian 12 packages manyrods needs (only the missing ones), configure
+# CMake (Release, Ninja when present) and build. Sourced, not executed.
+
+MANYRODS_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+MANYRODS_BUILD=${MANYRODS_BUILD:-$MANYRODS_ROOT/build}
+
+# Debian packages and why (README: Dependencies).
+MANYRODS_PACKAGES=(
+  g++               # C++20 compiler with OpenMP (libgomp)
+  cmake             # build system
+  ninja-build       # fast builds (make works too)
+  libeigen3-dev     # host-side linear algebra: statics, stable_dt, tests
+  libgtest-dev      # GoogleTest
+)
+
+manyrods_install_deps() {
+  local missing=() p
+  for p in "${MANYRODS_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -eq 0 ]; then
+    echo "manyrods: all required Debian packages are installed"
+    return 0
+  fi
+  echo "manyrods: installing missing Debian packages: ${missing[*]}"
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null 2>&1; then
+      sudo="sudo"
+    else
+      echo "manyrods: not root and no sudo; install as root: apt-get install ${missing[*]}" >&2
+      return 1
+    fi
+  fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+manyrods_configure() {
+  local gen=()
+  if command -v ninja >/dev/null 2>&1; then gen=(-G Ninja); fi
+  if [ -f "$MANYRODS_BUILD/CMakeCache.txt" ]; then
+    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  else
+    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release
+  fi
+}
+
+manyrods_build() {
+  cmake --build "$MANYRODS_BUILD" -j "$(nproc)" "$@"
+}
