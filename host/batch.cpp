@@ -204,20 +204,9 @@ Vec3 RodBatch<T>::angular_velocity(int r, int e) const {
   const int k = elem_index(r, e);
   return {double(state.elem_w[0][k]), double(state.elem_w[1][k]), double(state.elem_w[2][k])};
 }
-template <class T>
-void RodBatch<T>::set_velocity(int r, int j, const Vec3& v) {
-  const int k = node_index(r, j);
-  if (model.node_inv_mass[k] == T(0)) return;  // clamped node stays at rest
-  for (int d = 0; d < 3; ++d) state.node_v[d][k] = T(v[d]);
-}
-template <class T>
-void RodBatch<T>::set_angular_velocity(int r, int e, const Vec3& w) {
-  const int k = elem_index(r, e);
-  for (int d = 0; d < 3; ++d) state.elem_w[d][k] = T(w[d]);
-}
 // "rod r ('name'): field[i] = [..]: why", as build_batch words its errors.
 template <class T>
-static void check_load(const RodBatch<T>& b, int r, int i, int count, const char* field, const Vec3& v) {
+static void check_value(const RodBatch<T>& b, int r, int i, int count, const char* field, const Vec3& v) {
   if (r < 0 || r >= b.rod_count())
     fail(std::string(field) + ": rod " + std::to_string(r) + " out of range (batch has " +
          std::to_string(b.rod_count()) + " rods)");
@@ -227,14 +216,27 @@ static void check_load(const RodBatch<T>& b, int r, int i, int count, const char
   if (!finite(v)) fail(at + " = " + vec_str(v) + ": not finite");
 }
 template <class T>
+void RodBatch<T>::set_velocity(int r, int j, const Vec3& v) {
+  check_value(*this, r, j, r >= 0 && r < rod_count() ? elements(r) + 1 : 0, "velocity", v);
+  const int k = node_index(r, j);
+  if (model.node_inv_mass[k] == T(0)) return;  // clamped node stays at rest
+  for (int d = 0; d < 3; ++d) state.node_v[d][k] = T(v[d]);
+}
+template <class T>
+void RodBatch<T>::set_angular_velocity(int r, int e, const Vec3& w) {
+  check_value(*this, r, e, r >= 0 && r < rod_count() ? elements(r) : 0, "angular_velocity", w);
+  const int k = elem_index(r, e);
+  for (int d = 0; d < 3; ++d) state.elem_w[d][k] = T(w[d]);
+}
+template <class T>
 void RodBatch<T>::set_node_force(int r, int j, const Vec3& f) {
-  check_load(*this, r, j, r >= 0 && r < rod_count() ? elements(r) + 1 : 0, "node_force", f);
+  check_value(*this, r, j, r >= 0 && r < rod_count() ? elements(r) + 1 : 0, "node_force", f);
   const int k = node_index(r, j);
   for (int d = 0; d < 3; ++d) loads.node_force[d][k] = T(f[d]);
 }
 template <class T>
 void RodBatch<T>::set_element_couple(int r, int e, const Vec3& c) {
-  check_load(*this, r, e, r >= 0 && r < rod_count() ? elements(r) : 0, "element_couple", c);
+  check_value(*this, r, e, r >= 0 && r < rod_count() ? elements(r) : 0, "element_couple", c);
   const int k = elem_index(r, e);
   for (int d = 0; d < 3; ++d) loads.elem_couple[d][k] = T(c[d]);
 }
