@@ -195,7 +195,12 @@ template <class T>
 MANYRODS_HD inline T inverse_right_jacobian_gamma(T theta, T s, T c) {
   const T t2 = theta * theta;
   if (t2 < T(0.25))
-    return T(1) / T(12) + t2 * (T(1) / T(720) + t2 * (T(1) / T(30240) + t2 / T(1209600)));
+    return T(1) / T(12) +
+           t2 * (T(1) / T(720) +
+                 t2 * (T(1) / T(30240) +
+                       t2 * (T(1) / T(1209600) +
+                             t2 * (T(1) / T(47900160) +
+                                   t2 * (T(691) / T(1307674368000.0) + t2 / T(74724249600.0))))));
   return T(1) / t2 - s / (T(2) * theta * (T(1) - c));
 }
 

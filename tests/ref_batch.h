@@ -165,9 +165,11 @@ struct Random {
   }
   V3 unit_perpendicular(const V3& t) {
     V3 u;
-    do u = unit() - t * t.dot(unit());
-    while (u.norm() < 0.1);
-    return (u - t * t.dot(u)).normalized();
+    do {
+      u = unit();
+      u -= t * t.dot(u);
+    } while (u.norm() < 0.1);
+    return u.normalized();
   }
   M3 rotation(double angle) { return Eigen::AngleAxisd(angle, unit()).toRotationMatrix(); }
   V3 range(const V3& lo, const V3& hi) {

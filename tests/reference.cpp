@@ -119,12 +119,15 @@ Evaluation evaluate(const Rod& rod0, Terms terms, bool positions_rounded) {
 
   // ---- Voronoi points (joints)
   const std::vector<Joint> js = joints(rod);
-  std::vector<V3> jm(js.size(), V3::Zero()), jkxm(js.size(), V3::Zero());
-  std::vector<double> jm_scale(js.size(), 0), jkxm_scale(js.size(), 0);
+  std::vector<V3> jon_a(js.size(), V3::Zero()), jon_b(js.size(), V3::Zero());
+  std::vector<double> jcouple_scale(js.size(), 0);
   ev.kappa.resize(std::max(n - 1, 0));
   ev.kappa_rate.resize(std::max(n - 1, 0));
   ev.m.resize(std::max(n - 1, 0));
   ev.kxm.resize(std::max(n - 1, 0));
+  ev.on_a.resize(std::max(n - 1, 0));
+  ev.on_b.resize(std::max(n - 1, 0));
+  ev.joint_couple_scale.resize(std::max(n - 1, 0));
   ev.kappa_scale.resize(std::max(n - 1, 0));
   ev.kappa_rate_scale.resize(std::max(n - 1, 0));
   ev.m_scale.resize(std::max(n - 1, 0));
@@ -140,39 +143,49 @@ Evaluation evaluate(const Rod& rod0, Terms terms, bool positions_rounded) {
     const double theta = psi.norm();
     const V3 kappa = -psi / j.D;
     const V3 d = R.transpose() * wb - wa;
-    const V3 kappa_rate = inverse_right_jacobian(psi) * d / j.D;
+    const M3 jr_inv = inverse_right_jacobian(psi);
+    const V3 kappa_rate = jr_inv * d / j.D;
     // Scales. R's entries are O(1) sums of three products; the log map
     // amplifies their error by at most |J_r⁻¹| ≤ π/2 (θ ≤ π), and the angle
     // itself carries θ·u: ψ_scale = 4 + θ. J_r⁻¹'s norm is at most
     // 1 + θ/2 + γθ²; a perturbation δψ of ψ changes J_r⁻¹ d by O(|d| δψ).
     const double psi_scale = 4 + theta;
-    const double gamma = theta < 1e-4 ? 1.0 / 12 : 1 / (theta * theta) - 1 / (2 * theta * std::tan(theta / 2));
+    const double gamma =
+        theta < 1e-4 ? 1.0 / 12 : 1 / (theta * theta) - 1 / (2 * theta * std::tan(theta / 2));
     const double jr_scale = 1 + theta / 2 + gamma * theta * theta;
     const double kappa_scale = psi_scale / j.D + j.U0.norm();
     const double kappa_rate_scale = (jr_scale * (wa.norm() + wb.norm()) + d.norm() * psi_scale) / j.D;
     const V3 visc = j.CM.cwiseProduct(j.tauM);
     const V3 m = j.CM.cwiseProduct(kappa - j.U0) + visc.cwiseProduct(kappa_rate);
     const double m_scale = max_abs(j.CM) * kappa_scale + max_abs(visc) * kappa_rate_scale;
-    jm[i] = m;
-    jm_scale[i] = m_scale;
-    jkxm[i] = j.D * kappa.cross(m);
-    jkxm_scale[i] = j.D * (kappa_scale * m.norm() + kappa.norm() * m_scale);
+    const V3 kxm = j.D * kappa.cross(m);
+    // the joint's couples on its two elements (see reference.h)
+    jon_a[i] = jr_inv.transpose() * m;
+    jon_b[i] = -(jr_inv * m);
+    // J_r⁻¹ has norm ≤ jr_scale and changes by O(δψ) when ψ does
+    jcouple_scale[i] = jr_scale * m_scale + m.norm() * psi_scale;
     if (j.a < 0) {
       ev.root_kappa = kappa;
       ev.root_kappa_rate = kappa_rate;
       ev.root_m = m;
-      ev.root_kxm = jkxm[i];
+      ev.root_kxm = kxm;
+      ev.root_on_a = jon_a[i];
+      ev.root_on_b = jon_b[i];
       ev.root_kappa_scale = kappa_scale;
       ev.root_kappa_rate_scale = kappa_rate_scale;
       ev.root_m_scale = m_scale;
+      ev.root_joint_couple_scale = jcouple_scale[i];
     } else {
       ev.kappa[j.a] = kappa;
       ev.kappa_rate[j.a] = kappa_rate;
       ev.m[j.a] = m;
-      ev.kxm[j.a] = jkxm[i];
+      ev.kxm[j.a] = kxm;
+      ev.on_a[j.a] = jon_a[i];
+      ev.on_b[j.a] = jon_b[i];
       ev.kappa_scale[j.a] = kappa_scale;
       ev.kappa_rate_scale[j.a] = kappa_rate_scale;
       ev.m_scale[j.a] = m_scale;
+      ev.joint_couple_scale[j.a] = jcouple_scale[i];
     }
   }
 
@@ -198,6 +211,7 @@ Evaluation evaluate(const Rod& rod0, Terms terms, bool positions_rounded) {
   // ---- element couples (material)
   ev.couple.assign(n, V3::Zero());
   ev.inertial_couple.assign(n, V3::Zero());
+  ev.applied_couple.assign(n, V3::Zero());
   ev.couple_scale.assign(n, 0);
   // joint index on the root side / tip side of element e, −1 if none
   const int root_offset = rod.clamped ? 1 : 0;  // js[i] with a = e−1 sits at i = e − 1 + root_offset
@@ -206,23 +220,23 @@ Evaluation evaluate(const Rod& rod0, Terms terms, bool positions_rounded) {
     const int jt = (e + 1 < n) ? e + root_offset : -1;
     V3 c = V3::Zero();
     double s = 0;
-    if (jt >= 0) {
-      c += jm[jt] + 0.5 * jkxm[jt];
-      s += jm_scale[jt] + 0.5 * jkxm_scale[jt];
+    if (jt >= 0) {  // e is element a of the joint on its tip side
+      c += jon_a[jt];
+      s += jcouple_scale[jt];
     }
-    if (jr >= 0) {
-      c += -jm[jr] + 0.5 * jkxm[jr];
-      s += jm_scale[jr] + 0.5 * jkxm_scale[jr];
+    if (jr >= 0) {  // e is element b of the joint on its root side
+      c += jon_b[jr];
+      s += jcouple_scale[jr];
     }
     c += Qe[e].cross(ev.n[e]);
     s += Qe_scale[e] * ev.n[e].norm() + Qe[e].norm() * ev.n_scale[e];
-    const V3& w = rod.w[e];
-    ev.inertial_couple[e] = rod.J[e].cwiseProduct(w).cross(w);
-    c += ev.inertial_couple[e];
-    s += 2 * max_abs(rod.J[e]) * w.squaredNorm();
     c += rod.Q[e] * rod.c_ext[e];
     s += rod.c_ext[e].norm();
-    ev.couple[e] = c;
+    ev.applied_couple[e] = c;
+    const V3& w = rod.w[e];
+    ev.inertial_couple[e] = rod.J[e].cwiseProduct(w).cross(w);
+    s += 2 * max_abs(rod.J[e]) * w.squaredNorm();
+    ev.couple[e] = c + ev.inertial_couple[e];
     ev.couple_scale[e] = s;
   }
   return ev;
@@ -270,7 +284,7 @@ Energies energies(const Rod& rod0, Terms terms) {
   return en;
 }
 
-Rod step(const Rod& rod, double h, Terms terms) {
+Rod step(const Rod& rod, double h, Terms terms, int euler_evaluations) {
   Rod s = rod;
   drift(s, 0.5 * h);
   const Evaluation ev = evaluate(s, terms);
@@ -278,7 +292,26 @@ Rod step(const Rod& rod, double h, Terms terms) {
     if (k == 0 && s.clamped) continue;
     s.v[k] += (h / s.mass[k]) * ev.force[k];
   }
-  for (int e = 0; e < s.elements(); ++e) s.w[e] += h * ev.couple[e].cwiseQuotient(s.J[e]);
+  for (int e = 0; e < s.elements(); ++e) {
+    // implicit midpoint for (Jω)×ω: ω⁺ = Φ(ω⁺), Φ(w) = ω + h J⁻¹(C + (Jω̄)×ω̄), ω̄ = (ω + w)/2
+    const V3 J = s.J[e], w0 = s.w[e], C = ev.applied_couple[e];
+    auto phi = [&](const V3& w) {
+      const V3 wb = 0.5 * (w0 + w);
+      return V3(w0 + h * (C + J.cwiseProduct(wb).cross(wb)).cwiseQuotient(J));
+    };
+    V3 w = w0;
+    if (euler_evaluations >= 0) {
+      for (int i = 0; i < euler_evaluations; ++i) w = phi(w);
+    } else {
+      for (int i = 0; i < 200; ++i) {
+        const V3 next = phi(w);
+        const bool done = (next - w).norm() <= 1e-16 * next.norm();
+        w = next;
+        if (done) break;
+      }
+    }
+    s.w[e] = w;
+  }
   drift(s, 0.5 * h);
   return s;
 }
