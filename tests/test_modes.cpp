@@ -88,7 +88,9 @@ TEST(Modes, BendingFrequenciesEigenproblemAndFreeVibration) {
     const double lowering = (eb[k] - cont) / eb[k];
     EXPECT_GT(lowering, 0);
     EXPECT_LT(lowering, 2 * estimate);
-    if (k == 0) EXPECT_LT(lowering, 1e-3);  // CASES 2a: below 0.1% for mode 1
+    if (k == 0) {
+      EXPECT_LT(lowering, 1e-3);  // CASES 2a: below 0.1% for mode 1
+    }
     // n = 50 agrees with Euler–Bernoulli within the Timoshenko lowering plus
     // the n = 50 discretization error.
     EXPECT_NEAR(a50.bend_x[k], eb[k], eb[k] * 2 * estimate + std::abs(e2) * 4 / 3 * 1.1);
