@@ -180,6 +180,7 @@ void RodBatch<T>::allocate(int slots, std::int64_t elements) {
   for (auto* a : {&scratch.elem_force, &scratch.elem_couple, &scratch.vor_moment, &scratch.vor_kxm,
                   &loads.node_force, &loads.elem_couple})
     fill3(*a, 0, 0, 0);
+  scratch.flags.resize(S, 0);
 }
 
 template <class T>

@@ -11,26 +11,71 @@
 
 namespace manyrods {
 
+// Kernel lambdas passed to launch must be inlined into its `omp simd` loop,
+// or the loop calls them once per index and does not vectorize:
+//   launch(n, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { ... });
+#if defined(__GNUC__)
+#define MANYRODS_KERNEL_LAMBDA __attribute__((always_inline))
+#else
+#define MANYRODS_KERNEL_LAMBDA
+#endif
+
 // Execution settings come from the caller; no global state.
 struct Exec {
   int threads = 1;  // OpenMP threads for this call
 };
 
+namespace detail {
+template <class F>
+__attribute__((always_inline)) inline void launch_block(int k0, F kernel) {
+#pragma omp simd
+  for (int i = 0; i < kGuard; ++i) kernel(k0 + i);
+}
+}  // namespace detail
+
 template <class F>
 inline void launch(int slots, const Exec& ex, F&& kernel) {
   const int blocks = slots / kGuard;
   if (ex.threads <= 1 || blocks < 2) {
-    for (int b = 0; b < blocks; ++b) {
-#pragma omp simd
-      for (int i = 0; i < kGuard; ++i) kernel(b * kGuard + i);
-    }
+    for (int b = 0; b < blocks; ++b) detail::launch_block(b * kGuard, kernel);
     return;
   }
 #pragma omp parallel for num_threads(ex.threads) schedule(static)
-  for (int b = 0; b < blocks; ++b) {
+  for (int b = 0; b < blocks; ++b) detail::launch_block(b * kGuard, kernel);
+}
+
+// Runs `fast` (branch-free, returns true where its result is not valid) in
+// the SIMD loops, records those indices in `flags`, and reruns them with
+// `exact` — in the same block, right after, so the order of work per index
+// is the same whatever the thread count.
+namespace detail {
+
+// One block of launch_with_fallback. The kernels are taken by value: copies
+// that live in registers, which no store in the loop can alias (through a
+// captured reference the compiler must reload them, and the loop stays
+// scalar).
+template <class Fast, class Exact>
+__attribute__((always_inline)) inline void fallback_block(int k0, int* flags, Fast fast, Exact exact) {
 #pragma omp simd
-    for (int i = 0; i < kGuard; ++i) kernel(b * kGuard + i);
+  for (int i = 0; i < kGuard; ++i) flags[k0 + i] = fast(k0 + i) ? 1 : 0;
+  int any = 0;
+  for (int i = 0; i < kGuard; ++i) any |= flags[k0 + i];
+  if (any)
+    for (int i = 0; i < kGuard; ++i)
+      if (flags[k0 + i]) exact(k0 + i);
+}
+
+}  // namespace detail
+
+template <class Fast, class Exact>
+inline void launch_with_fallback(int slots, const Exec& ex, int* flags, Fast&& fast, Exact&& exact) {
+  const int blocks = slots / kGuard;
+  if (ex.threads <= 1 || blocks < 2) {
+    for (int b = 0; b < blocks; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
+    return;
   }
+#pragma omp parallel for num_threads(ex.threads) schedule(static)
+  for (int b = 0; b < blocks; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
 }
 
 }  // namespace manyrods

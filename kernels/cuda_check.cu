@@ -20,14 +20,15 @@ __global__ void stage_kernel(int slots, ModelView<T> m, ConstStateView<T> s, Scr
   voronoi_stage<kT>(k, m, s, out);
 }
 
-template <unsigned kMask, class T>
+// kEulerOrder 2: Position Verlet's kick; 4: PEFRL's (host/step.h).
+template <unsigned kMask, int kEulerOrder, class T>
 __global__ void kick_kernel(int slots, T h, ModelView<T> m, LoadsView<T> l, ConstScratchView<T> sc,
                             StateView<T> s) {
   const int k = blockIdx.x * blockDim.x + threadIdx.x;
   constexpr Terms kT = terms_from_mask(kMask);
   if (k >= slots) return;
   dynamic_node<kT>(k, h, m, l, sc, s);
-  dynamic_element<kT>(k, h, m, l, sc, s);
+  dynamic_element<kT, kEulerOrder>(k, h, m, l, sc, s);
 }
 
 template <class T>
@@ -62,7 +63,8 @@ template <Terms kT, class T>
 void instantiate() {
   constexpr unsigned mask = terms_mask(kT);
   (void)&stage_kernel<mask, T>;
-  (void)&kick_kernel<mask, T>;
+  (void)&kick_kernel<mask, 2, T>;
+  (void)&kick_kernel<mask, 4, T>;
   (void)&drift_kernel<T>;
   (void)&energy_kernel<mask, T>;
   (void)&viscous_kernel<mask, T>;

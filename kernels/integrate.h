@@ -17,6 +17,7 @@ namespace manyrods {
 
 template <class T>
 MANYRODS_HD inline void kinematic_node(int k, T h, const StateView<T>& s) {
+  MANYRODS_UNROLL
   for (int d = 0; d < 3; ++d) s.node_x[d][k] += h * s.node_v[d][k];
 }
 
@@ -25,6 +26,20 @@ MANYRODS_HD inline void kinematic_element(int k, T h, const StateView<T>& s) {
   const vec3<T> w = load3(s.elem_w, k);
   const mat3<T> r = rotation_exp((-h) * w);
   store_frame(s.elem_Q, k, mul(r, load_frame(s.elem_Q, k)));
+}
+
+// The branch-free drift for |hω| ≤ ½ rad. For a larger turn it leaves Q
+// unchanged (a select, so the loop still vectorizes) and returns true: the
+// launcher then redoes element k with kinematic_element.
+template <class T>
+MANYRODS_HD inline bool kinematic_element_small(int k, T h, const StateView<T>& s) {
+  const vec3<T> w = (-h) * load3(s.elem_w, k);
+  const mat3<T> q = load_frame(s.elem_Q, k);
+  const mat3<T> n = mul(rotation_exp_small(w), q);
+  const bool big = !(dot(w, w) <= T(kSmallRotation2));
+  MANYRODS_UNROLL
+  for (int i = 0; i < 9; ++i) s.elem_Q[i][k] = big ? q.m[i] : n.m[i];
+  return big;
 }
 
 template <Terms kT, class T>
@@ -52,26 +67,50 @@ MANYRODS_HD inline vec3<T> element_external_couple(int k, const LoadsView<T>& l,
   return {T(0), T(0), T(0)};
 }
 
-template <Terms kT, class T>
-MANYRODS_HD inline void dynamic_element(int k, T h, const ModelView<T>& m, const LoadsView<T>& l,
-                                        const ConstScratchView<T>& sc, const StateView<T>& s) {
-  const ConstStateView<T> cs = as_const(s);
-  vec3<T> c = element_couple(k, sc);
-  if constexpr (kT.loads) c = c + element_external_couple<kT>(k, l, load_frame(cs.elem_Q, k));
-  // Implicit midpoint for the rigid-body term: J(ω⁺ − ω)/h = C + (Jω̄) × ω̄,
-  // ω̄ = (ω + ω⁺)/2. Since ω̄·((Jω̄) × ω̄) = 0 the rotational kinetic energy
-  // changes by exactly h ω̄·C: the term does no work, as in the continuum (an
-  // explicit (Jω) × ω would add O(h²) energy per step, an O(h) drift).
-  // Fixed-point iterations contract by ~h|ω| per sweep; three make the
-  // remaining error O((h|ω|)⁴).
-  const vec3<T> inertia = load3(m.elem_inertia, k), inv = load3(m.elem_inv_inertia, k);
-  const vec3<T> w0 = load3(cs.elem_w, k);
+// The rotational part of a kick of length h with the couple c frozen:
+// J ω̇ = c + (Jω) × ω by one implicit-midpoint step,
+// J(ω⁺ − ω)/h = c + (Jω̄) × ω̄, ω̄ = (ω + ω⁺)/2. Since ω̄·((Jω̄) × ω̄) = 0 the
+// rotational kinetic energy changes by exactly h ω̄·c: the term does no work,
+// as in the continuum (an explicit (Jω) × ω would add O(h²) energy per step,
+// an O(h) drift). Fixed-point iterations contract by ~h|ω| per sweep; three
+// make the remaining error O((h|ω|)⁴) relative to the O(h²) increment.
+template <class T>
+MANYRODS_HD inline vec3<T> euler_midpoint(vec3<T> w0, vec3<T> c, vec3<T> inertia, vec3<T> inv, T h) {
   vec3<T> w1 = w0 + h * hadamard(inv, c + euler_couple(inertia, w0));
+  MANYRODS_UNROLL
   for (int it = 0; it < 3; ++it) {
     const vec3<T> wb = T(0.5) * (w0 + w1);
     w1 = w0 + h * hadamard(inv, c + euler_couple(inertia, wb));
   }
-  store3(s.elem_w, k, w1);
+  return w1;
+}
+
+// kEulerOrder selects how the rigid-body term is integrated inside the kick:
+//   2: one implicit-midpoint step (second order for the sub-flow; enough
+//      for Position Verlet);
+//   4: the symmetric triple-jump composition of three midpoint steps,
+//      γ₁h, γ₂h, γ₁h with γ₁ = 1/(2 − 2^{1/3}), γ₂ = 1 − 2γ₁ (Yoshida 1990),
+//      fourth order for the sub-flow, so that a fourth-order composition of
+//      drifts and kicks (PEFRL) keeps its order when Jω ∦ ω. Each midpoint
+//      step does no work, so neither does the composition.
+template <Terms kT, int kEulerOrder = 2, class T>
+MANYRODS_HD inline void dynamic_element(int k, T h, const ModelView<T>& m, const LoadsView<T>& l,
+                                        const ConstScratchView<T>& sc, const StateView<T>& s) {
+  static_assert(kEulerOrder == 2 || kEulerOrder == 4, "kEulerOrder: 2 or 4");
+  const ConstStateView<T> cs = as_const(s);
+  vec3<T> c = element_couple(k, sc);
+  if constexpr (kT.loads) c = c + element_external_couple<kT>(k, l, load_frame(cs.elem_Q, k));
+  const vec3<T> inertia = load3(m.elem_inertia, k), inv = load3(m.elem_inv_inertia, k);
+  vec3<T> w = load3(cs.elem_w, k);
+  if constexpr (kEulerOrder == 2) {
+    w = euler_midpoint(w, c, inertia, inv, h);
+  } else {
+    const T g1 = T(1.3512071919596576340), g2 = T(-1.7024143839193152681);  // 1/(2 − ∛2), 1 − 2γ₁
+    w = euler_midpoint(w, c, inertia, inv, g1 * h);
+    w = euler_midpoint(w, c, inertia, inv, g2 * h);
+    w = euler_midpoint(w, c, inertia, inv, g1 * h);
+  }
+  store3(s.elem_w, k, w);
 }
 
 }  // namespace manyrods

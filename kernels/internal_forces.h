@@ -50,16 +50,28 @@ MANYRODS_HD inline void element_stage(int k, const ModelView<T>& m, const ConstS
   store3(out.elem_couple, k, cross(es.Qe, n));
 }
 
-template <Terms kT, class T>
+template <Terms kT, bool kSmall = false, class T>
 MANYRODS_HD inline void voronoi_stage(int k, const ModelView<T>& m, const ConstStateView<T>& s,
                                       const ScratchView<T>& out) {
-  const VoronoiStrain<T> vs = voronoi_strain(k, m, s);
+  const VoronoiStrain<T> vs = voronoi_strain<kSmall>(k, m, s);
   vec3<T> rate = {T(0), T(0), T(0)};
   if constexpr (kT.kelvin_voigt) rate = voronoi_strain_rate(k, m, s, vs);
   const vec3<T> mo = voronoi_resultant<kT>(k, m, vs.kappa, rate);
-  const T gamma = inverse_right_jacobian_gamma(vs.theta, vs.s, vs.c);
-  store3(out.vor_moment, k, mo + gamma * cross(vs.psi, cross(vs.psi, mo)));
+  store3(out.vor_moment, k, mo + vs.gamma * cross(vs.psi, cross(vs.psi, mo)));
   store3(out.vor_kxm, k, m.vor_rest_length[k] * cross(vs.kappa, mo));
+}
+
+// The branch-free Voronoi stage; returns true when joint k turns by more
+// than ½ rad, where its result is not valid and the launcher redoes it with
+// voronoi_stage<kT, false>.
+template <Terms kT, class T>
+MANYRODS_HD inline bool voronoi_stage_small(int k, const ModelView<T>& m, const ConstStateView<T>& s,
+                                            const ScratchView<T>& out) {
+  voronoi_stage<kT, true>(k, m, s, out);
+  T tr = T(0);
+  MANYRODS_UNROLL
+  for (int i = 0; i < 9; ++i) tr += s.elem_Q[i][k] * s.elem_Q[i][k - 1];
+  return !(T(0.5) * (tr - T(1)) >= T(kSmallRotationCos));
 }
 
 template <class T>

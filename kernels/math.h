@@ -16,10 +16,27 @@
 
 #include <cmath>
 
+// Kernels are always inlined into the launch loops on the host: a call that
+// is not inlined stops the loop from vectorizing.
 #if defined(__CUDACC__)
 #define MANYRODS_HD __host__ __device__
+#elif defined(__GNUC__)
+#define MANYRODS_HD __attribute__((always_inline))
 #else
 #define MANYRODS_HD
+#endif
+
+// Fully unroll the short fixed loops inside kernels, so that a host launcher's
+// `omp simd` loop over indices vectorizes across indices (otherwise GCC
+// vectorizes the 3- or 9-long inner loop, or nothing).
+#if defined(__CUDACC__)
+#define MANYRODS_UNROLL _Pragma("unroll")
+#elif defined(__clang__)
+#define MANYRODS_UNROLL _Pragma("clang loop unroll(full)")
+#elif defined(__GNUC__)
+#define MANYRODS_UNROLL _Pragma("GCC unroll 16")
+#else
+#define MANYRODS_UNROLL
 #endif
 
 namespace manyrods {
@@ -86,7 +103,9 @@ MANYRODS_HD inline vec3<T> mul_transpose(const mat3<T>& q, vec3<T> a) {
 template <class T>
 MANYRODS_HD inline mat3<T> mul(const mat3<T>& a, const mat3<T>& b) {
   mat3<T> c;
+  MANYRODS_UNROLL
   for (int i = 0; i < 3; ++i)
+    MANYRODS_UNROLL
     for (int j = 0; j < 3; ++j)
       c.m[3 * i + j] = a.m[3 * i] * b.m[j] + a.m[3 * i + 1] * b.m[3 + j] +
                        a.m[3 * i + 2] * b.m[6 + j];
@@ -96,21 +115,38 @@ MANYRODS_HD inline mat3<T> mul(const mat3<T>& a, const mat3<T>& b) {
 template <class T>
 MANYRODS_HD inline mat3<T> mul_transpose(const mat3<T>& a, const mat3<T>& b) {
   mat3<T> c;
+  MANYRODS_UNROLL
   for (int i = 0; i < 3; ++i)
+    MANYRODS_UNROLL
     for (int j = 0; j < 3; ++j)
       c.m[3 * i + j] = a.m[3 * i] * b.m[3 * j] + a.m[3 * i + 1] * b.m[3 * j + 1] +
                        a.m[3 * i + 2] * b.m[3 * j + 2];
   return c;
 }
 
-// Coefficients of exp([w]×) = I + a [w]× + b [w]×², θ = |w|:
-// a = sin θ / θ, b = (1 − cos θ)/θ². Taylor series below θ² < 1e-2, where the
-// truncation error (θ⁸/9! for a) is far below double round-off.
+// Small rotations, θ ≤ ½ rad (θ² ≤ ¼), are computed by polynomials with no
+// branch and no transcendental call, so that kernels vectorize; the general
+// functions below use the same polynomials in that range and exact formulas
+// outside it. Launchers run the small-angle kernels in SIMD loops and redo
+// the rare larger rotations with the general kernels (host/launch.h).
+inline constexpr double kSmallRotation2 = 0.25;             // θ² bound of the small paths
+inline constexpr double kSmallRotationCos = 0.8775825618903728;  // cos ½
+
+// a = sin θ/θ, b = (1 − cos θ)/θ² by Taylor series in t2 = θ² ≤ ¼; the first
+// omitted terms (t2⁸/17!, t2⁸/18!) are below 1e-19.
+template <class T>
+MANYRODS_HD inline void exp_coefficients_small(T t2, T& a, T& b) {
+  a = T(1) + t2 * (T(-1.0 / 6) + t2 * (T(1.0 / 120) + t2 * (T(-1.0 / 5040) + t2 * (T(1.0 / 362880) +
+      t2 * (T(-1.0 / 39916800) + t2 * (T(1.0 / 6227020800.0) + t2 * T(-1.0 / 1307674368000.0)))))));
+  b = T(0.5) + t2 * (T(-1.0 / 24) + t2 * (T(1.0 / 720) + t2 * (T(-1.0 / 40320) + t2 * (T(1.0 / 3628800) +
+      t2 * (T(-1.0 / 479001600) + t2 * (T(1.0 / 87178291200.0) + t2 * T(-1.0 / 20922789888000.0)))))));
+}
+
+// Coefficients of exp([w]×) = I + a [w]× + b [w]×², θ = |w|.
 template <class T>
 MANYRODS_HD inline void exp_coefficients(T theta2, T& a, T& b) {
-  if (theta2 < T(1e-2)) {
-    a = T(1) - theta2 / T(6) * (T(1) - theta2 / T(20) * (T(1) - theta2 / T(42)));
-    b = T(0.5) * (T(1) - theta2 / T(12) * (T(1) - theta2 / T(30) * (T(1) - theta2 / T(56))));
+  if (theta2 <= T(kSmallRotation2)) {
+    exp_coefficients_small(theta2, a, b);
   } else {
     const T theta = std::sqrt(theta2);
     a = std::sin(theta) / theta;
@@ -118,11 +154,8 @@ MANYRODS_HD inline void exp_coefficients(T theta2, T& a, T& b) {
   }
 }
 
-// exp([w]×), Rodrigues' formula.
 template <class T>
-MANYRODS_HD inline mat3<T> rotation_exp(vec3<T> w) {
-  T a, b;
-  exp_coefficients(dot(w, w), a, b);
+MANYRODS_HD inline mat3<T> rodrigues(vec3<T> w, T a, T b) {
   const T xx = w.x * w.x, yy = w.y * w.y, zz = w.z * w.z;
   const T xy = w.x * w.y, xz = w.x * w.z, yz = w.y * w.z;
   mat3<T> r;
@@ -138,29 +171,71 @@ MANYRODS_HD inline mat3<T> rotation_exp(vec3<T> w) {
   return r;
 }
 
-// ψ = log(R) as a rotation vector, R = exp([ψ]×), robust on all of SO(3).
-// θ = atan2(sin θ, cos θ) from the skew and trace parts (no acos, which loses
-// half the digits near 0 and π). Near θ = π the skew part vanishes and the
-// axis comes from the symmetric part R + Rᵀ = 2cosθ I + 2(1 − cosθ) u uᵀ.
-// Also returns θ, sin θ, cos θ for callers that need them.
+// exp([w]×) for |w|² ≤ kSmallRotation2 (no branch).
 template <class T>
-MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) {
+MANYRODS_HD inline mat3<T> rotation_exp_small(vec3<T> w) {
+  T a, b;
+  exp_coefficients_small(dot(w, w), a, b);
+  return rodrigues(w, a, b);
+}
+
+// exp([w]×), Rodrigues' formula, any angle.
+template <class T>
+MANYRODS_HD inline mat3<T> rotation_exp(vec3<T> w) {
+  T a, b;
+  exp_coefficients(dot(w, w), a, b);
+  return rodrigues(w, a, b);
+}
+
+// The skew (axial) part of R, sin θ · u, and cos θ from the trace.
+template <class T>
+MANYRODS_HD inline vec3<T> rotation_axial(const mat3<T>& r, T& s, T& c) {
   const vec3<T> axial = {T(0.5) * (r.m[7] - r.m[5]), T(0.5) * (r.m[2] - r.m[6]),
-                         T(0.5) * (r.m[3] - r.m[1])};  // = sin θ · u
+                         T(0.5) * (r.m[3] - r.m[1])};
   s = norm(axial);
   c = T(0.5) * (r.m[0] + r.m[4] + r.m[8] - T(1));
+  return axial;
+}
+
+// ψ = log(R) for θ ≤ ½ (c ≥ cos ½), no branch: with t = s/(1 + c) = tan(θ/2)
+// ≤ 0.2554, θ = 2 atan t = 2t·P(t²), P(z) = Σ (−z)^k/(2k+1), k ≤ 14 (the
+// first omitted term is < 1e-18), and θ/s = 2P/(1 + c) (no 0/0 at θ = 0).
+// Outside its range the result is finite and wrong; callers check c.
+template <class T>
+MANYRODS_HD inline vec3<T> rotation_log_small(const mat3<T>& r, T& theta, T& s, T& c) {
+  const vec3<T> axial = rotation_axial(r, s, c);
+  const T inv = T(1) / (T(1) + c);
+  const T t = s * inv, z = t * t;
+  T p = T(1.0 / 29);
+  p = T(1.0 / 27) - z * p;
+  p = T(1.0 / 25) - z * p;
+  p = T(1.0 / 23) - z * p;
+  p = T(1.0 / 21) - z * p;
+  p = T(1.0 / 19) - z * p;
+  p = T(1.0 / 17) - z * p;
+  p = T(1.0 / 15) - z * p;
+  p = T(1.0 / 13) - z * p;
+  p = T(1.0 / 11) - z * p;
+  p = T(1.0 / 9) - z * p;
+  p = T(1.0 / 7) - z * p;
+  p = T(1.0 / 5) - z * p;
+  p = T(1.0 / 3) - z * p;
+  p = T(1) - z * p;
+  theta = T(2) * t * p;
+  return (T(2) * p * inv) * axial;
+}
+
+// ψ = log(R) as a rotation vector, R = exp([ψ]×), robust on all of SO(3).
+// θ ≤ ½: rotation_log_small. Otherwise θ = atan2(sin θ, cos θ) from the skew
+// and trace parts (no acos, which loses half the digits near 0 and π); near
+// θ = π the skew part vanishes and the axis comes from the symmetric part
+// R + Rᵀ = 2cosθ I + 2(1 − cosθ) u uᵀ. Also returns θ, sin θ, cos θ.
+template <class T>
+MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) {
+  const vec3<T> axial = rotation_axial(r, s, c);
+  if (c >= T(kSmallRotationCos)) return rotation_log_small(r, theta, s, c);
   theta = std::atan2(s, c);
-  if (c > T(-0.9)) {
-    // θ/sin θ = 1 + θ²/6 + 7θ⁴/360 + 31θ⁶/15120 + …; θ/s itself has no
-    // cancellation, so the series is needed only to avoid 0/0: below θ² = 1e-6
-    // its first omitted term is < 2.1e-21. (It used to be taken below
-    // θ² = 1e-2, where the omitted 31θ⁶/15120 reaches 2e-9 relative: κ was off
-    // by up to 2e-9 and jumped by that much at θ = 0.1;
-    // tests/test_kernels_vs_reference.cpp.)
-    const T t2 = theta * theta;
-    const T f = t2 < T(1e-6) ? T(1) + t2 / T(6) * (T(1) + T(7) / T(60) * t2) : theta / s;
-    return f * axial;
-  }
+  if (c > T(-0.9)) return (theta / s) * axial;  // θ > ½: no 0/0
   // θ > ~2.69 rad: axis from the symmetric part, sign from the skew part.
   const T omc = T(1) - c;
   const T d0 = (r.m[0] - c) / omc, d1 = (r.m[4] - c) / omc, d2 = (r.m[8] - c) / omc;  // u_i²
@@ -186,28 +261,33 @@ MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) 
 // If R(t) = exp([ψ(t)]×) then Rᵀ Ṙ = [J_r(ψ) ψ̇]×, so ψ̇ = J_r⁻¹ (Rᵀ Ṙ)^∨.
 // γ = Σ_{k≥1} |B_2k| θ^(2k−2)/(2k)! = 1/12 + θ²/720 + θ⁴/30240 + θ⁶/1209600
 //     + θ⁸/47900160 + 691θ¹⁰/1307674368000 + θ¹²/74724249600 + O(θ¹⁴)
-// (series of (1 − (θ/2)cot(θ/2))/θ²) is used below θ = 0.5, where the first
+// (series of (1 − (θ/2)cot(θ/2))/θ²) is used for θ ≤ ½, where the first
 // omitted term is < 3e-17 relative. (Cut after θ⁶ it was off by 8e-11 in γ,
 // 2e-11·|v| in the result, at θ → 0.5: far above double round-off.) Above,
 // the form 1/θ² − sin θ/(2θ(1 − cos θ)) stays finite up to θ = π; with c
 // from the trace its cancellation costs about 2u/θ²·|v| ≤ 8u·|v|.
 template <class T>
-MANYRODS_HD inline T inverse_right_jacobian_gamma(T theta, T s, T c) {
-  const T t2 = theta * theta;
-  if (t2 < T(0.25))
-    return T(1) / T(12) +
-           t2 * (T(1) / T(720) +
-                 t2 * (T(1) / T(30240) +
-                       t2 * (T(1) / T(1209600) +
-                             t2 * (T(1) / T(47900160) +
-                                   t2 * (T(691) / T(1307674368000.0) + t2 / T(74724249600.0))))));
-  return T(1) / t2 - s / (T(2) * theta * (T(1) - c));
+MANYRODS_HD inline T inverse_right_jacobian_gamma_small(T t2) {
+  return T(1) / T(12) +
+         t2 * (T(1) / T(720) +
+               t2 * (T(1) / T(30240) +
+                     t2 * (T(1) / T(1209600) +
+                           t2 * (T(1) / T(47900160) +
+                                 t2 * (T(691) / T(1307674368000.0) + t2 / T(74724249600.0))))));
 }
 
 template <class T>
-MANYRODS_HD inline vec3<T> inverse_right_jacobian_apply(vec3<T> psi, T theta, T s, T c, vec3<T> v) {
+MANYRODS_HD inline T inverse_right_jacobian_gamma(T theta, T s, T c) {
+  const T t2 = theta * theta;
+  if (t2 <= T(kSmallRotation2)) return inverse_right_jacobian_gamma_small(t2);
+  return T(1) / t2 - s / (T(2) * theta * (T(1) - c));
+}
+
+// J_r⁻¹ v given γ(θ).
+template <class T>
+MANYRODS_HD inline vec3<T> inverse_right_jacobian_apply(vec3<T> psi, T gamma, vec3<T> v) {
   const vec3<T> pv = cross(psi, v);
-  return v + T(0.5) * pv + inverse_right_jacobian_gamma(theta, s, c) * cross(psi, pv);
+  return v + T(0.5) * pv + gamma * cross(psi, pv);
 }
 
 // [a]×, the cross-product matrix: [a]× b = a × b.
@@ -223,12 +303,12 @@ MANYRODS_HD inline mat3<T> transpose(const mat3<T>& a) {
 
 // J_r(ψ)⁻¹ as a matrix (see inverse_right_jacobian_apply).
 template <class T>
-MANYRODS_HD inline mat3<T> inverse_right_jacobian(vec3<T> psi, T theta, T s, T c) {
+MANYRODS_HD inline mat3<T> inverse_right_jacobian(vec3<T> psi, T gamma) {
   mat3<T> j;
   const vec3<T> ex = {T(1), T(0), T(0)}, ey = {T(0), T(1), T(0)}, ez = {T(0), T(0), T(1)};
-  const vec3<T> cx = inverse_right_jacobian_apply(psi, theta, s, c, ex);
-  const vec3<T> cy = inverse_right_jacobian_apply(psi, theta, s, c, ey);
-  const vec3<T> cz = inverse_right_jacobian_apply(psi, theta, s, c, ez);
+  const vec3<T> cx = inverse_right_jacobian_apply(psi, gamma, ex);
+  const vec3<T> cy = inverse_right_jacobian_apply(psi, gamma, ey);
+  const vec3<T> cz = inverse_right_jacobian_apply(psi, gamma, ez);
   j.m[0] = cx.x, j.m[1] = cy.x, j.m[2] = cz.x;
   j.m[3] = cx.y, j.m[4] = cy.y, j.m[5] = cz.y;
   j.m[6] = cx.z, j.m[7] = cy.z, j.m[8] = cz.z;

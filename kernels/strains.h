@@ -55,18 +55,28 @@ struct VoronoiStrain {
   mat3<T> R;      // Q_k Q_{k−1}ᵀ
   vec3<T> psi;    // log R
   T theta, s, c;  // |ψ|, sin, cos
+  T gamma;        // γ(θ) of J_r(ψ)⁻¹ (kernels/math.h)
   vec3<T> kappa;  // total curvature −ψ/D̂ (rest curvature not subtracted)
 };
 
-template <class T>
+// kSmall: the branch-free path, valid when the joint turns by θ ≤ ½ rad
+// (see voronoi_stage_small); launchers redo the others with kSmall = false.
+template <bool kSmall = false, class T>
 MANYRODS_HD inline VoronoiStrain<T> voronoi_strain(int k, const ModelView<T>& m,
                                                    const ConstStateView<T>& s) {
   VoronoiStrain<T> r;
   r.R = mul_transpose(load_frame(s.elem_Q, k), load_frame(s.elem_Q, k - 1));
-  r.psi = rotation_log(r.R, r.theta, r.s, r.c);
+  if constexpr (kSmall) {
+    r.psi = rotation_log_small(r.R, r.theta, r.s, r.c);
+    r.gamma = inverse_right_jacobian_gamma_small(r.theta * r.theta);
+  } else {
+    r.psi = rotation_log(r.R, r.theta, r.s, r.c);
+    r.gamma = inverse_right_jacobian_gamma(r.theta, r.s, r.c);
+  }
   r.kappa = (T(-1) / m.vor_rest_length[k]) * r.psi;
   return r;
 }
+
 
 template <class T>
 MANYRODS_HD inline vec3<T> voronoi_strain_rate(int k, const ModelView<T>& m,
@@ -75,7 +85,7 @@ MANYRODS_HD inline vec3<T> voronoi_strain_rate(int k, const ModelView<T>& m,
   const vec3<T> wa = load3(s.elem_w, k - 1);
   const vec3<T> wb_in_a = mul_transpose(vs.R, load3(s.elem_w, k));
   return (T(1) / m.vor_rest_length[k]) *
-         inverse_right_jacobian_apply(vs.psi, vs.theta, vs.s, vs.c, wb_in_a - wa);
+         inverse_right_jacobian_apply(vs.psi, vs.gamma, wb_in_a - wa);
 }
 
 }  // namespace manyrods

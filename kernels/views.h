@@ -100,11 +100,13 @@ MANYRODS_HD inline void store3(T* const a[3], int k, vec3<T> v) {
 template <class T>
 MANYRODS_HD inline mat3<T> load_frame(const T* const q[9], int k) {
   mat3<T> r;
+  MANYRODS_UNROLL
   for (int i = 0; i < 9; ++i) r.m[i] = q[i][k];
   return r;
 }
 template <class T>
 MANYRODS_HD inline void store_frame(T* const q[9], int k, const mat3<T>& r) {
+  MANYRODS_UNROLL
   for (int i = 0; i < 9; ++i) q[i][k] = r.m[i];
 }
 

@@ -119,7 +119,7 @@ MANYRODS_HD inline void voronoi_maps(int k, const ModelView<T>& m, const ConstSt
   const vec3<T> c = load3(m.vor_stiffness, k), tau = load3(m.vor_tau, k);
   w = {kT.bend ? d * c.x * tau.x : T(0), kT.bend ? d * c.y * tau.y : T(0),
        kT.twist ? d * c.z * tau.z : T(0)};
-  const mat3<T> ji = inverse_right_jacobian(vs.psi, vs.theta, vs.s, vs.c);
+  const mat3<T> ji = inverse_right_jacobian(vs.psi, vs.gamma);
   const mat3<T> jirt = mul_transpose(ji, vs.R);
   for (int i = 0; i < 9; ++i) {
     c1.m[i] = -id * ji.m[i];

@@ -104,6 +104,9 @@ struct Scratch {
   // allocated on first use only.
   std::array<Array<T>, 36> visc_G;
   std::array<Array<T>, 6> visc_g;
+  // Slots whose rotation exceeded the branch-free kernels' range in the
+  // current stage (host/launch.h launch_with_fallback).
+  Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
 };
 
 // Dead external loads in the lab frame, set by the user between steps.

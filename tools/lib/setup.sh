@@ -12,6 +12,7 @@ MANYRODS_PACKAGES=(
   ninja-build       # fast builds (make works too)
   libeigen3-dev     # host-side linear algebra: statics, stable_dt, tests
   libgtest-dev      # GoogleTest
+  libbenchmark-dev  # Google Benchmark (bench/)
 )
 
 manyrods_install_deps() {
