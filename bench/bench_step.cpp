@@ -1,0 +1,79 @@
+// bench/bench_step.cpp — throughput of the time step (Google Benchmark).
+//
+// BM_step_<scene>_<precision>[/threads]: one Position Verlet step per
+// iteration; items_per_second = element-steps per second; bytes_per_second
+// from the arrays the step streams (kBytesPerSlot below, per slot and step).
+// Each benchmark's label carries the state hash after a fixed number of
+// steps from the initial state, so a faster variant that changes the answer
+// shows (and the hash must not depend on the thread count).
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+
+#include "scenes.h"
+
+using namespace manyrods;
+using namespace manyrods::bench;
+
+namespace {
+
+// Arrays (each one value per slot) read or written by one step, counted from
+// host/step.h: 2 drifts (read x, v, Q, ω; write x, Q: 18 reads + 12 writes
+// each), resultants (read x (6: k and k+1), v (6), Q (18: k and k−1),
+// ω (6), 28 model arrays; write 12 scratch), kick (read 12 scratch (+6
+// neighbours), 7 model arrays, 6 loads; read/write v, ω (12)). Neighbour
+// reads hit cache, so they are counted once: ≈ 2·30 + 58 + 12 + 37 + 12 ≈
+// 180 values per slot and step without the implicit viscous solve, whose
+// block elimination adds ≈ 42 writes + 42 reads + 28 model + 18 state ≈ 130.
+constexpr double kValuesPerSlot = 180, kValuesImplicit = 130;
+
+constexpr Terms kNoKV{true, true, true, true, false, true, true};
+
+template <class T, Terms kT, Viscous kV>
+void run_step(benchmark::State& state, const std::string& scene, bool kv) {
+  const int threads = int(state.range(0));
+  const Exec ex{threads};
+  Scene sc = make_scene(scene, kv);
+  RodBatch<T> b = build_batch<T>(sc.rods, sc.gravity);
+  const T dt = T(0.5 * stable_dt<kT>(b).elastic);
+  // hash after 20 steps from the initial state
+  RodBatch<T> probe = b;
+  for (int i = 0; i < 20; ++i) step<kT, kV>(probe, dt, ex);
+  const std::uint64_t h = state_hash(probe);
+  char label[64];
+  std::snprintf(label, sizeof label, "hash=%016llx", static_cast<unsigned long long>(h));
+  for (auto _ : state) step<kT, kV>(b, dt, ex);
+  const double per_slot = kValuesPerSlot + (kT.kelvin_voigt && kV == Viscous::implicit ? kValuesImplicit : 0);
+  state.SetItemsProcessed(state.iterations() * b.element_count());
+  state.SetBytesProcessed(int64_t(double(state.iterations()) * b.slots() * per_slot * sizeof(T)));
+  state.counters["elements"] = double(b.element_count());
+  state.counters["bytes_per_element"] = double(b.bytes()) / double(b.element_count());
+  state.SetLabel(label);
+}
+
+#define MANYRODS_SCENE(scene)                                                                          \
+  void BM_step_##scene##_float(benchmark::State& s) {                                                  \
+    run_step<float, kAllTerms, Viscous::implicit>(s, #scene, true);                                    \
+  }                                                                                                    \
+  void BM_step_##scene##_double(benchmark::State& s) {                                                 \
+    run_step<double, kAllTerms, Viscous::implicit>(s, #scene, true);                                   \
+  }                                                                                                    \
+  void BM_step_##scene##_nokv_float(benchmark::State& s) { run_step<float, kNoKV, Viscous::implicit>(s, #scene, false); } \
+  void BM_step_##scene##_nokv_double(benchmark::State& s) { run_step<double, kNoKV, Viscous::implicit>(s, #scene, false); } \
+  void BM_step_##scene##_kvexplicit_float(benchmark::State& s) {                                       \
+    run_step<float, kAllTerms, Viscous::explicit_rate>(s, #scene, true);                               \
+  }                                                                                                    \
+  BENCHMARK(BM_step_##scene##_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step_##scene##_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step_##scene##_nokv_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step_##scene##_nokv_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step_##scene##_kvexplicit_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+
+MANYRODS_SCENE(hair)
+MANYRODS_SCENE(cable)
+MANYRODS_SCENE(long)
+MANYRODS_SCENE(mixed)
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,92 @@
+// bench/scenes.h — the benchmark scenes of issue 4, shared by the benchmark
+// and the accuracy tools.
+//   hair:  10,000 rods × 32 elements, human hair (CASES 5b geometry), clamped
+//          roots on a grid, horizontal, gravity, Kelvin–Voigt
+//   cable: 1,000 rods × 100 elements, seed cantilever material, Kelvin–Voigt
+//   long:  1 rod × 10,000 elements (seed material, 10 m)
+//   mixed: 5,000 rods with 8 … 256 elements
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "manyrods/manyrods.h"
+
+namespace manyrods::bench {
+
+struct Scene {
+  std::vector<RodSpec> rods;
+  Vec3 gravity{0, 0, -9.81};
+};
+
+inline RodSpec hair_strand(double x, double y, bool kv) {
+  RodSpec s = RodSpec::straight({x, y, 0}, {1, 0, 0}, {0, 0, 1}, 0.2, 32);
+  s.name = "hair";
+  s.section = Section::circle(40e-6);
+  s.material = {1300, 3.9e9, 0.3};
+  s.damping = kv ? Damping::shear_extension(1e-3, 1e-3) : Damping::none();
+  s.clamped_root = true;
+  return s;
+}
+
+inline RodSpec seed_rod(double x, double y, double length, int n, bool kv) {
+  RodSpec s = RodSpec::straight({x, y, 0}, {1, 0, 0}, {0, 0, 1}, length, n);
+  s.name = "cable";
+  s.section = Section::rectangle(0.01, 0.01);
+  s.material = {1000, 1e6, 0.3};
+  s.damping = kv ? Damping::shear_extension(0.02, 0.02) : Damping::none();
+  s.clamped_root = true;
+  return s;
+}
+
+inline Scene make_scene(const std::string& name, bool kv, int rods_override = -1) {
+  Scene sc;
+  if (name == "hair") {
+    const int R = rods_override > 0 ? rods_override : 10000;
+    for (int i = 0; i < R; ++i) sc.rods.push_back(hair_strand(0.001 * (i % 100), 0.001 * (i / 100), kv));
+  } else if (name == "cable") {
+    const int R = rods_override > 0 ? rods_override : 1000;
+    for (int i = 0; i < R; ++i) sc.rods.push_back(seed_rod(0.02 * (i % 32), 0.02 * (i / 32), 0.3, 100, kv));
+  } else if (name == "long") {
+    sc.rods.push_back(seed_rod(0, 0, 10.0, 10000, kv));
+  } else if (name == "mixed") {
+    const int R = rods_override > 0 ? rods_override : 5000;
+    for (int i = 0; i < R; ++i) {
+      const int n = 8 + int((std::uint64_t(i) * 2654435761u) % 249);  // 8 … 256, spread
+      sc.rods.push_back(seed_rod(0.02 * (i % 64), 0.02 * (i / 64), 0.3 * n / 100.0, n, kv));
+    }
+  }
+  return sc;
+}
+
+// FNV-1a over the real (non-ghost) state entries: positions, velocities,
+// frames, angular velocities. A faster variant that changes the answer
+// changes the hash.
+template <class T>
+std::uint64_t state_hash(const RodBatch<T>& b) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&](T v) {
+    unsigned char bytes[sizeof(T)];
+    std::memcpy(bytes, &v, sizeof(T));
+    for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
+  };
+  for (int r = 0; r < b.rod_count(); ++r) {
+    for (int j = 0; j <= b.elements(r); ++j) {
+      const int k = b.node_index(r, j);
+      for (int d = 0; d < 3; ++d) {
+        mix(b.state.node_x[d][k]);
+        mix(b.state.node_v[d][k]);
+      }
+    }
+    for (int e = 0; e < b.elements(r); ++e) {
+      const int k = b.elem_index(r, e);
+      for (int i = 0; i < 9; ++i) mix(b.state.elem_Q[i][k]);
+      for (int d = 0; d < 3; ++d) mix(b.state.elem_w[d][k]);
+    }
+  }
+  return h;
+}
+
+}  // namespace manyrods::bench
