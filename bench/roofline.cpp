@@ -35,7 +35,8 @@ void BM_peak_fma(benchmark::State& state) {
       flops += 2.0 * kLanes * kAcc * kInner;
     }
   }
-  state.counters["FLOP/s"] = benchmark::Counter(flops, benchmark::Counter::kIsRate);
+  state.SetItemsProcessed(int64_t(flops));  // items_per_second = FLOP/s
+  state.SetLabel("items are FLOPs");
 }
 
 // STREAM triad a = b + s·c over arrays far larger than the caches;

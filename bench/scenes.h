@@ -5,6 +5,8 @@
 //   cable: 1,000 rods × 100 elements, seed cantilever material, Kelvin–Voigt
 //   long:  1 rod × 10,000 elements (seed material, 10 m)
 //   mixed: 5,000 rods with 8 … 256 elements
+//   fibers: 1,000 rods × 32 elements, seed material, clamped, gravity — the
+//          PyElastica comparison scene (shared/peers/README.md)
 #pragma once
 
 #include <cstdint>
@@ -49,6 +51,9 @@ inline Scene make_scene(const std::string& name, bool kv, int rods_override = -1
   } else if (name == "cable") {
     const int R = rods_override > 0 ? rods_override : 1000;
     for (int i = 0; i < R; ++i) sc.rods.push_back(seed_rod(0.02 * (i % 32), 0.02 * (i / 32), 0.3, 100, kv));
+  } else if (name == "fibers") {
+    const int R = rods_override > 0 ? rods_override : 1000;
+    for (int i = 0; i < R; ++i) sc.rods.push_back(seed_rod(0.02 * (i % 32), 0.02 * (i / 32), 0.3, 32, kv));
   } else if (name == "long") {
     sc.rods.push_back(seed_rod(0, 0, 10.0, 10000, kv));
   } else if (name == "mixed") {
