@@ -70,6 +70,29 @@ inline void apply_dofs(RodBatch<double>& b, const RodDofs& d, const Eigen::Vecto
   }
 }
 
+// ∂r/∂q by central differences: steps h_rel·length for positions, h_rel
+// (rad) for rotations. The state is restored exactly after each column.
+template <Terms kT>
+Eigen::MatrixXd residual_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
+                                  std::array<Array<double>, 3>& c, double length, double h_rel) {
+  const int m = d.size(), nn = 3 * int(d.node_slots.size());
+  Eigen::MatrixXd J(m, m);
+  for (int col = 0; col < m; ++col) {
+    const double h = col < nn ? h_rel * length : h_rel;
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(m);
+    e[col] = h;
+    apply_dofs(b, d, e);
+    const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c);
+    e[col] = -2 * h;
+    apply_dofs(b, d, e);
+    const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c);
+    e[col] = h;
+    apply_dofs(b, d, e);
+    J.col(col) = (rp - rm) / (2 * h);
+  }
+  return J;
+}
+
 }  // namespace detail
 
 // Solves for static equilibrium under the batch's current loads and gravity,
@@ -114,20 +137,7 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt = {}) {
       bool ok = false;
       for (int it = 0; it < opt.max_newton_iterations; ++it) {
         const Eigen::VectorXd r0 = detail::static_residual<kStatic>(b, d, f, c);
-        Eigen::MatrixXd J(m, m);
-        for (int col = 0; col < m; ++col) {
-          const double h = col < nn ? 1e-6 * length : 1e-6;
-          Eigen::VectorXd e = Eigen::VectorXd::Zero(m);
-          e[col] = h;
-          detail::apply_dofs(b, d, e);
-          const Eigen::VectorXd rp = detail::static_residual<kStatic>(b, d, f, c);
-          e[col] = -2 * h;
-          detail::apply_dofs(b, d, e);
-          const Eigen::VectorXd rm = detail::static_residual<kStatic>(b, d, f, c);
-          e[col] = h;
-          detail::apply_dofs(b, d, e);
-          J.col(col) = (rp - rm) / (2 * h);
-        }
+        const Eigen::MatrixXd J = detail::residual_jacobian<kStatic>(b, d, f, c, length, 1e-6);
         // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r.
         Eigen::VectorXd dq = J.colPivHouseholderQr().solve(-r0);
         const double upd = std::max(dq.head(nn).cwiseAbs().maxCoeff() / length,

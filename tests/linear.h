@@ -60,20 +60,7 @@ Linearization linearize(RodBatch<double>& b, int rod, double h_rel = 1e-6) {
     f[a].resize(b.slots(), 0.0);
     c[a].resize(b.slots(), 0.0);
   }
-  lin.K.resize(m, m);
-  for (int col = 0; col < m; ++col) {
-    const double h = col < nn ? h_rel * length : h_rel;
-    Eigen::VectorXd e = Eigen::VectorXd::Zero(m);
-    e[col] = h;
-    detail::apply_dofs(b, d, e);
-    const Eigen::VectorXd rp = detail::static_residual<kT>(b, d, f, c);
-    e[col] = -2 * h;
-    detail::apply_dofs(b, d, e);
-    const Eigen::VectorXd rm = detail::static_residual<kT>(b, d, f, c);
-    e[col] = h;
-    detail::apply_dofs(b, d, e);
-    lin.K.col(col) = -(rp - rm) / (2 * h);
-  }
+  lin.K = -detail::residual_jacobian<kT>(b, d, f, c, length, h_rel);
   lin.K = 0.5 * (lin.K + lin.K.transpose()).eval();
   return lin;
 }

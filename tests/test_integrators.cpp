@@ -17,6 +17,7 @@
 #include <map>
 
 #include "cases.h"
+#include "energy_budget.h"
 #include "manyrods/statics.h"
 
 using namespace manyrods;
@@ -318,18 +319,8 @@ template <Viscous kV>
 double pefrl_dissipation_residual(const State<double>& s0, double tau, double h, double T, double* drop) {
   auto b = build_batch<double>({seed_cantilever(kN, Damping::shear_extension(tau, tau))});
   b.state = s0;
-  const Energies e0 = energies<kKV>(b);
-  double integral = 0, d_prev = e0.dissipation;
-  const int steps = int(std::lround(T / h));
-  for (int i = 0; i < steps; ++i) {
-    step_pefrl<kKV, kV>(b, h);
-    const double d = energies<kKV>(b).dissipation;
-    integral += 0.5 * h * (d_prev + d);  // trapezoid, O(h²)
-    d_prev = d;
-  }
-  const Energies e1 = energies<kKV>(b);
-  *drop = e0.total() - e1.total();
-  return e1.total() - e0.total() + integral;
+  return manyrods::testing::dissipation_residual<kKV>(
+      b, h, int(std::lround(T / h)), [h](RodBatch<double>& x) { step_pefrl<kKV, kV>(x, h); }, drop);
 }
 
 }  // namespace
