@@ -82,7 +82,8 @@ MANYRODS_HD inline vec3<T> cross(vec3<T> a, vec3<T> b) {
 }
 template <class T>
 MANYRODS_HD inline T norm(vec3<T> a) {
-  return std::sqrt(dot(a, a));
+  using std::sqrt;  // unqualified: lets a counting number type (bench/flop_count.cpp) supply its own
+  return sqrt(dot(a, a));
 }
 
 // Q a
@@ -148,9 +149,10 @@ MANYRODS_HD inline void exp_coefficients(T theta2, T& a, T& b) {
   if (theta2 <= T(kSmallRotation2)) {
     exp_coefficients_small(theta2, a, b);
   } else {
-    const T theta = std::sqrt(theta2);
-    a = std::sin(theta) / theta;
-    b = (T(1) - std::cos(theta)) / theta2;
+    using std::cos, std::sin, std::sqrt;  // unqualified: see norm
+    const T theta = sqrt(theta2);
+    a = sin(theta) / theta;
+    b = (T(1) - cos(theta)) / theta2;
   }
 }
 
@@ -234,20 +236,21 @@ template <class T>
 MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) {
   const vec3<T> axial = rotation_axial(r, s, c);
   if (c >= T(kSmallRotationCos)) return rotation_log_small(r, theta, s, c);
-  theta = std::atan2(s, c);
+  using std::atan2, std::sqrt;  // unqualified: see norm
+  theta = atan2(s, c);
   if (c > T(-0.9)) return (theta / s) * axial;  // θ > ½: no 0/0
   // θ > ~2.69 rad: axis from the symmetric part, sign from the skew part.
   const T omc = T(1) - c;
   const T d0 = (r.m[0] - c) / omc, d1 = (r.m[4] - c) / omc, d2 = (r.m[8] - c) / omc;  // u_i²
   vec3<T> u;
   if (d0 >= d1 && d0 >= d2) {
-    const T ux = std::sqrt(d0 > T(0) ? d0 : T(0));
+    const T ux = sqrt(d0 > T(0) ? d0 : T(0));
     u = {ux, T(0.5) * (r.m[1] + r.m[3]) / (omc * ux), T(0.5) * (r.m[2] + r.m[6]) / (omc * ux)};
   } else if (d1 >= d2) {
-    const T uy = std::sqrt(d1 > T(0) ? d1 : T(0));
+    const T uy = sqrt(d1 > T(0) ? d1 : T(0));
     u = {T(0.5) * (r.m[1] + r.m[3]) / (omc * uy), uy, T(0.5) * (r.m[5] + r.m[7]) / (omc * uy)};
   } else {
-    const T uz = std::sqrt(d2 > T(0) ? d2 : T(0));
+    const T uz = sqrt(d2 > T(0) ? d2 : T(0));
     u = {T(0.5) * (r.m[2] + r.m[6]) / (omc * uz), T(0.5) * (r.m[5] + r.m[7]) / (omc * uz), uz};
   }
   const T un = norm(u);

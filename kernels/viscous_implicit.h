@@ -69,7 +69,8 @@ MANYRODS_HD inline void cholesky6(Block6<T>& l) {
   for (int j = 0; j < 6; ++j) {
     T d = l.a[6 * j + j];
     for (int k = 0; k < j; ++k) d -= l.a[6 * j + k] * l.a[6 * j + k];
-    d = std::sqrt(d);
+    using std::sqrt;  // unqualified: see kernels/math.h norm
+    d = sqrt(d);
     l.a[6 * j + j] = d;
     for (int i = j + 1; i < 6; ++i) {
       T v = l.a[6 * i + j];
