@@ -1,7 +1,7 @@
 // bench/bench_step.cpp — throughput of the time step (Google Benchmark).
 //
 // BM_step_<scene>_<precision>[/threads]: one Position Verlet step per
-// iteration; items_per_second = element-steps per second; bytes_per_second
+// iteration (BM_step64_…: 64 steps per call of step_n, temporally blocked); items_per_second = element-steps per second; bytes_per_second
 // from the arrays the step streams (kBytesPerSlot below, per slot and step).
 // Each benchmark's label carries the state hash after a fixed number of
 // steps from the initial state, so a faster variant that changes the answer
@@ -30,7 +30,9 @@ constexpr double kValuesPerSlot = 180, kValuesImplicit = 130;
 
 constexpr Terms kNoKV{true, true, true, true, false, true, true};
 
-template <class T, Terms kT, Viscous kV>
+// kBlock > 1: step_n with kBlock steps per call (temporal blocking), the way
+// advance() steps; items still count element-steps.
+template <class T, Terms kT, Viscous kV, int kBlock = 1>
 void run_step(benchmark::State& state, const std::string& scene, bool kv) {
   const int threads = int(state.range(0));
   const Exec ex{threads};
@@ -44,10 +46,10 @@ void run_step(benchmark::State& state, const std::string& scene, bool kv) {
   char label[128];
   std::snprintf(label, sizeof label, "hash=%016llx bytes_per_element=%.1f", static_cast<unsigned long long>(h),
                 double(b.bytes()) / double(b.element_count()));
-  for (auto _ : state) step<kT, kV>(b, dt, ex);
+  for (auto _ : state) step_n<kT, kV>(b, dt, kBlock, ex);
   const double per_slot = kValuesPerSlot + (kT.kelvin_voigt && kV == Viscous::implicit ? kValuesImplicit : 0);
-  state.SetItemsProcessed(state.iterations() * b.element_count());
-  state.SetBytesProcessed(int64_t(double(state.iterations()) * b.slots() * per_slot * sizeof(T)));
+  state.SetItemsProcessed(state.iterations() * kBlock * b.element_count());
+  state.SetBytesProcessed(int64_t(double(state.iterations()) * kBlock * b.slots() * per_slot * sizeof(T)));
   state.SetLabel(label);
 }
 
@@ -67,7 +69,15 @@ void run_step(benchmark::State& state, const std::string& scene, bool kv) {
   BENCHMARK(BM_step_##scene##_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
   BENCHMARK(BM_step_##scene##_nokv_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
   BENCHMARK(BM_step_##scene##_nokv_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
-  BENCHMARK(BM_step_##scene##_kvexplicit_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+  void BM_step64_##scene##_nokv_float(benchmark::State& s) {                                           \
+    run_step<float, kNoKV, Viscous::implicit, 64>(s, #scene, false);                                   \
+  }                                                                                                    \
+  void BM_step64_##scene##_nokv_double(benchmark::State& s) {                                          \
+    run_step<double, kNoKV, Viscous::implicit, 64>(s, #scene, false);                                  \
+  }                                                                                                    \
+  BENCHMARK(BM_step_##scene##_kvexplicit_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step64_##scene##_nokv_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step64_##scene##_nokv_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 
 MANYRODS_SCENE(hair)
 MANYRODS_SCENE(cable)

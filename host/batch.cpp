@@ -348,11 +348,30 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
   RodBatch<T> b;
   b.set_gravity(gravity);
   std::int64_t slots = 0, elements = 0;
+  // Segments (batch.h): rods are packed into 64-aligned runs of at most
+  // kSegmentSlots slots, with at least one spare slot at the end of each (the
+  // tip ghost element reads the node after it), so that no kernel of one
+  // segment touches a slot another segment writes.
+  auto round_up = [](std::int64_t x) { return (x + kGuard - 1) / kGuard * kGuard; };
+  Segment seg;
+  auto close_segment = [&](int next_rod) {
+    if (next_rod > seg.rod_begin) {
+      seg.rod_end = next_rod;
+      seg.end = static_cast<int>(round_up(slots + 1));
+      b.segments.push_back(seg);
+      slots = seg.end;
+    }
+    seg = Segment{static_cast<int>(slots), 0, next_rod, 0, true};
+  };
   for (std::size_t r = 0; r < specs.size(); ++r) {
     const RodSpec& s = specs[r];
     RodInfo info;
     info.name = s.name;
     info.elements = s.elements();
+    const std::int64_t size = std::int64_t(std::max(info.elements, 0)) + 2;
+    const bool big = size + 1 > kSegmentSlots;
+    if (big || slots + size + 1 - seg.begin > kSegmentSlots) close_segment(int(r));
+    if (big) seg.fused = false;
     info.offset = static_cast<int>(slots);
     info.clamped_root = s.clamped_root;
     try {
@@ -365,11 +384,13 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     }
     slots += info.elements + 2;
     elements += info.elements;
-    if (slots > (std::int64_t(1) << 31) - 4 * kGuard)
+    if (slots > (std::int64_t(1) << 31) - 4 * kSegmentSlots)
       fail("batch: " + std::to_string(slots) + " slots exceed the 32-bit index range");
     b.rods.push_back(info);
+    if (big) close_segment(int(r) + 1);
   }
-  slots = (slots + 1 + kGuard - 1) / kGuard * kGuard;  // + 1: the last tip ghost reads one node past
+  close_segment(int(specs.size()));
+  if (b.segments.empty()) slots = kGuard;
   b.allocate(static_cast<int>(slots), elements);
 
   Model<T>& m = b.model;

@@ -1,4 +1,4 @@
-// host/launch.h — runs a per-index kernel over all slots of a batch.
+// host/launch.h — runs a per-index kernel over the slots of a batch (or a range of them).
 //
 // The slot range is cut into blocks of kGuard (64) indices; OpenMP threads take
 // whole blocks and each block is one `omp simd` loop of fixed length. Every
@@ -33,15 +33,21 @@ __attribute__((always_inline)) inline void launch_block(int k0, F kernel) {
 }
 }  // namespace detail
 
+// Runs kernel(k) for k in [begin, end) (multiples of kGuard).
 template <class F>
-inline void launch(int slots, const Exec& ex, F&& kernel) {
-  const int blocks = slots / kGuard;
-  if (ex.threads <= 1 || blocks < 2) {
-    for (int b = 0; b < blocks; ++b) detail::launch_block(b * kGuard, kernel);
+inline void launch(int begin, int end, const Exec& ex, F&& kernel) {
+  const int b0 = begin / kGuard, b1 = end / kGuard;
+  if (ex.threads <= 1 || b1 - b0 < 2) {
+    for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
     return;
   }
 #pragma omp parallel for num_threads(ex.threads) schedule(static)
-  for (int b = 0; b < blocks; ++b) detail::launch_block(b * kGuard, kernel);
+  for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
+}
+
+template <class F>
+inline void launch(int slots, const Exec& ex, F&& kernel) {
+  launch(0, slots, ex, kernel);
 }
 
 // Runs `fast` (branch-free, returns true where its result is not valid) in
@@ -68,14 +74,15 @@ __attribute__((always_inline)) inline void fallback_block(int k0, int* flags, Fa
 }  // namespace detail
 
 template <class Fast, class Exact>
-inline void launch_with_fallback(int slots, const Exec& ex, int* flags, Fast&& fast, Exact&& exact) {
-  const int blocks = slots / kGuard;
-  if (ex.threads <= 1 || blocks < 2) {
-    for (int b = 0; b < blocks; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
+inline void launch_with_fallback(int begin, int end, const Exec& ex, int* flags, Fast&& fast,
+                                 Exact&& exact) {
+  const int b0 = begin / kGuard, b1 = end / kGuard;
+  if (ex.threads <= 1 || b1 - b0 < 2) {
+    for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
     return;
   }
 #pragma omp parallel for num_threads(ex.threads) schedule(static)
-  for (int b = 0; b < blocks; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
+  for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
 }
 
 }  // namespace manyrods

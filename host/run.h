@@ -101,7 +101,11 @@ void advance(RodBatch<T>& b, T dt, std::int64_t steps, const Exec& ex = {}, cons
   std::int64_t done = 0;
   while (done < steps) {
     const std::int64_t chunk = std::min<std::int64_t>(opt.check_every, steps - done);
-    for (std::int64_t i = 0; i < chunk; ++i) detail::one_step<kT, kV, kI>(b, dt, ex);
+    if constexpr (kI == Integrator::pefrl) {
+      for (std::int64_t i = 0; i < chunk; ++i) detail::one_step<kT, kV, kI>(b, dt, ex);
+    } else {
+      step_n<kT, kV>(b, dt, chunk, ex);  // temporally blocked, same result as `chunk` steps
+    }
     if (const NonFinite nf = find_non_finite(b); nf.found) {
       // Replay from the last good state to the first non-finite step.
       detail::copy_state(b.state, good);

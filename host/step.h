@@ -25,47 +25,67 @@
 
 namespace manyrods {
 
+// The whole batch as one range of slots and rods.
+template <class T>
+Segment whole(const RodBatch<T>& b) {
+  return {0, b.slots(), 0, b.rod_count(), false};
+}
+
+// Each stage runs on a range of slots (a Segment; default: the whole batch).
+
 // Stages 2: scratch ← resultants of the current state.
 // Joints that turn by more than ½ rad are redone by the general kernel.
 template <Terms kT, class T>
-void compute_resultants(RodBatch<T>& b, const Exec& ex) {
+void compute_resultants(RodBatch<T>& b, const Exec& ex, const Segment& r) {
   const ModelView<T> m = b.model_view();
   const ConstStateView<T> s = std::as_const(b).state_view();
   const ScratchView<T> sc = b.scratch_view();
   launch_with_fallback(
-      b.slots(), ex, b.scratch.flags.data(),
+      r.begin, r.end, ex, b.scratch.flags.data(),
       [&](int k) MANYRODS_KERNEL_LAMBDA {
         element_stage<kT>(k, m, s, sc);
         return voronoi_stage_small<kT>(k, m, s, sc);
       },
       [&](int k) MANYRODS_KERNEL_LAMBDA { voronoi_stage<kT>(k, m, s, sc); });
 }
+template <Terms kT, class T>
+void compute_resultants(RodBatch<T>& b, const Exec& ex) {
+  compute_resultants<kT>(b, ex, whole(b));
+}
 
 // Elements that turn by more than ½ rad in the drift are redone exactly.
 template <class T>
-void drift(RodBatch<T>& b, T h, const Exec& ex) {
+void drift(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
   const StateView<T> s = b.state_view();
   launch_with_fallback(
-      b.slots(), ex, b.scratch.flags.data(),
+      r.begin, r.end, ex, b.scratch.flags.data(),
       [&](int k) MANYRODS_KERNEL_LAMBDA {
         kinematic_node(k, h, s);
         return kinematic_element_small(k, h, s);
       },
       [&](int k) MANYRODS_KERNEL_LAMBDA { kinematic_element(k, h, s); });
 }
+template <class T>
+void drift(RodBatch<T>& b, T h, const Exec& ex) {
+  drift(b, h, ex, whole(b));
+}
 
 // kEulerOrder: order of the rigid-body (Jω)×ω sub-flow inside the kick
 // (kernels/integrate.h dynamic_element): 2 for Position Verlet, 4 for PEFRL.
 template <Terms kT, int kEulerOrder = 2, class T>
-void kick(RodBatch<T>& b, T h, const Exec& ex) {
+void kick(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
   const ModelView<T> m = b.model_view();
   const LoadsView<T> l = b.loads_view();
   const ConstScratchView<T> sc = std::as_const(b).scratch_view();
   const StateView<T> s = b.state_view();
-  launch(b.slots(), ex, [&](int k) MANYRODS_KERNEL_LAMBDA {
+  launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA {
     dynamic_node<kT>(k, h, m, l, sc, s);
     dynamic_element<kT, kEulerOrder>(k, h, m, l, sc, s);
   });
+}
+template <Terms kT, int kEulerOrder = 2, class T>
+void kick(RodBatch<T>& b, T h, const Exec& ex) {
+  kick<kT, kEulerOrder>(b, h, ex, whole(b));
 }
 
 // How the Kelvin–Voigt force is integrated.
@@ -77,34 +97,71 @@ void kick(RodBatch<T>& b, T h, const Exec& ex) {
 //                  reference.
 enum class Viscous { implicit, explicit_rate };
 
-// Stage 3b: the implicit viscous update, rod by rod.
+// Stage 3b: the implicit viscous update, rod by rod (the scratch view must
+// be taken outside any parallel region: it allocates on first use).
 template <Terms kT, class T>
-void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
+void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r,
+                    const ImplicitScratchView<T>& sc) {
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
+#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 16) if (ex.threads > 1 && r.rod_end - r.rod_begin > 1)
+  for (int i = r.rod_begin; i < r.rod_end; ++i)
+    viscous_implicit_rod<kT>(b.rods[i].offset + 1, b.rods[i].elements + 1, h, m, s, sc);
+}
+template <Terms kT, class T>
+void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
   const ImplicitScratchView<T> sc = b.implicit_scratch_view();
-  const int rods = b.rod_count();
-#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 16) if (ex.threads > 1 && rods > 1)
-  for (int r = 0; r < rods; ++r)
-    viscous_implicit_rod<kT>(b.rods[r].offset + 1, b.rods[r].elements + 1, h, m, s, sc);
+  viscous_update<kT>(b, h, ex, whole(b), sc);
 }
 
-// One Position Verlet step of length dt for every rod in the batch.
+// `count` Position Verlet steps of length dt for every rod in the batch.
+//
+// The batch is stepped segment by segment (include/manyrods/batch.h): a
+// segment (≤ 2048 slots, in L2) runs all stages of all `count` steps before
+// the next segment is touched (temporal blocking: rods do not interact, so
+// the order does not change any result), instead of four sweeps over the
+// whole batch per step. Segments only read ghost slots of their neighbours,
+// whose values never change, so threads take every other segment at a time
+// (even, then odd: no slot is read while another thread writes it), and each
+// slot is computed by the same instructions whatever the thread count or
+// `count`. A rod longer than a segment is stepped stage by stage, with all
+// threads on each stage.
 template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
-void step(RodBatch<T>& b, T dt, const Exec& ex = {}) {
+void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {}) {
   constexpr bool kImplicit = kT.kelvin_voigt && kV == Viscous::implicit;
   constexpr Terms kExplicit = [] {
     Terms t = kT;
     if (kImplicit) t.kelvin_voigt = false;
     return t;
   }();
-  drift(b, T(0.5) * dt, ex);
-  compute_resultants<kExplicit>(b, ex);
-  kick<kExplicit>(b, dt, ex);
-  if constexpr (kImplicit) viscous_update<kT>(b, dt, ex);
-  drift(b, T(0.5) * dt, ex);
-  b.state.time += double(dt);
-  b.state.steps += 1;
+  ImplicitScratchView<T> visc{};
+  if constexpr (kImplicit) visc = b.implicit_scratch_view();
+  auto run = [&](const Segment& r, const Exec& e) {
+    for (std::int64_t i = 0; i < count; ++i) {
+      drift(b, T(0.5) * dt, e, r);
+      compute_resultants<kExplicit>(b, e, r);
+      kick<kExplicit>(b, dt, e, r);
+      if constexpr (kImplicit) viscous_update<kT>(b, dt, e, r, visc);
+      drift(b, T(0.5) * dt, e, r);
+    }
+  };
+  const int n = int(b.segments.size());
+  const Exec serial{1};
+  for (int parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for num_threads(ex.threads) schedule(static, 1) if (ex.threads > 1 && n > 2)
+    for (int i = parity; i < n; i += 2)
+      if (b.segments[i].fused) run(b.segments[i], serial);
+  }
+  for (const Segment& r : b.segments)
+    if (!r.fused) run(r, ex);
+  for (std::int64_t i = 0; i < count; ++i) b.state.time += double(dt);  // as `count` step() calls
+  b.state.steps += count;
+}
+
+// One Position Verlet step of length dt for every rod in the batch.
+template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
+void step(RodBatch<T>& b, T dt, const Exec& ex = {}) {
+  step_n<kT, kV>(b, dt, 1, ex);
 }
 
 // PEFRL coefficients (Omelyan, Mryglod, Folk, Comput. Phys. Commun. 146,

@@ -64,6 +64,18 @@ struct RodSpec {
   int elements() const { return static_cast<int>(frames.size()); }
 };
 
+// A run of slots holding whole rods [rod_begin, rod_end), 64-aligned. A
+// "fused" segment is small enough (≤ kSegmentSlots) to stay in L2 while the
+// step runs all its stages on it; a rod longer than that gets a segment of
+// its own, stepped stage by stage (host/step.h).
+inline constexpr int kSegmentSlots = 2048;
+
+struct Segment {
+  int begin = 0, end = 0;          // slots
+  int rod_begin = 0, rod_end = 0;  // rods
+  bool fused = true;
+};
+
 struct RodInfo {
   std::string name;
   int elements = 0;
@@ -123,6 +135,7 @@ class RodBatch {
   Scratch<T> scratch;
   Loads<T> loads;
   std::vector<RodInfo> rods;
+  std::vector<Segment> segments;  // cover [0, slots), in order
 
   int rod_count() const { return static_cast<int>(rods.size()); }
   int slots() const { return slots_; }
