@@ -33,4 +33,18 @@ inline double euler_bernoulli_omega(double beta_l) {
   return beta_l * beta_l * std::sqrt(kEI / (kRho * kA * kA * kL * kL * kL * kL));
 }
 
+// Largest |σ| = |Q e/l̂ − V0| over the elements of rod `rod` (shear and
+// stretch strain), from the library's element_strain kernel.
+inline double max_element_strain(const RodBatch<double>& b, int rod) {
+  const ModelView<double> m = b.model_view();
+  const ConstStateView<double> s = b.state_view();
+  double worst = 0;
+  for (int e = 0; e < b.elements(rod); ++e) {
+    const vec3<double> sigma = element_strain(b.elem_index(rod, e), m, s).sigma;
+    const double n = std::sqrt(dot(sigma, sigma));
+    if (!(n <= worst)) worst = n;  // NaN propagates
+  }
+  return worst;
+}
+
 }  // namespace manyrods::cases

@@ -106,20 +106,9 @@ Outcome run_hard(RodBatch<double>& b, double fraction = 0.9) {
       o.max_reach =
           std::max(o.max_reach, std::hypot(p[0] - root[0], p[1] - root[1], p[2] - root[2]) / length);
     }
-    for (int k = 0; k < n; ++k) {
-      const Mat3 q = b.frame(0, k);
-      const Vec3 p0 = b.position(0, k), p1 = b.position(0, k + 1);
-      const double l = b.model.elem_rest_length[b.elem_index(0, k)];
-      const double d[3] = {(p1[0] - p0[0]) / l, (p1[1] - p0[1]) / l, (p1[2] - p0[2]) / l};
-      double s2 = 0;
-      for (int i = 0; i < 3; ++i) {
-        const double s = q[3 * i] * d[0] + q[3 * i + 1] * d[1] + q[3 * i + 2] * d[2] -
-                         b.model.elem_rest_strain[i][b.elem_index(0, k)];
-        s2 += s * s;
-      }
-      o.max_strain = std::max(o.max_strain, std::sqrt(s2));
-      if (k + 1 < n) o.max_turn = std::max(o.max_turn, frame_angle(b.frame(0, k + 1), q));
-    }
+    o.max_strain = std::max(o.max_strain, max_element_strain(b, 0));
+    for (int k = 0; k + 1 < n; ++k)
+      o.max_turn = std::max(o.max_turn, frame_angle(b.frame(0, k + 1), b.frame(0, k)));
   }
   o.e_end = prev;
   o.dissipated = o.e0 - emin;
