@@ -127,7 +127,7 @@ void count(const char* name) {
     std::vector<std::vector<F>> arrays(42, std::vector<F>(S + 2 * kGuard));
     for (int i = 0; i < 36; ++i) isc.G[i] = arrays[i].data() + kGuard;
     for (int i = 0; i < 6; ++i) isc.g[i] = arrays[36 + i].data() + kGuard;
-    const Count v = measure([&] { viscous_implicit_rod<kT>(b.rods[0].offset + 1, 7, h, m, st, isc); });
+    const Count v = measure([&] { viscous_implicit_rod<kT>(b.rods[0].offset + 1, 7, h, F(0), m, st, isc); });
     visc = v.total() / 7;  // per cell (node + element)
   }
   std::printf("%-22s drift %4ld  resultants %4ld  kick %4ld  step %4ld FLOP per element-step (div %ld, sqrt %ld)",

@@ -2,6 +2,7 @@
 // (include/manyrods/batch.h explains the layout).
 #include "manyrods/batch.h"
 
+#include <algorithm>
 #include <Eigen/Dense>
 #include <cmath>
 #include <sstream>
@@ -330,16 +331,24 @@ LoadsView<T> RodBatch<T>::loads_view() const {
 }
 
 template <class T>
-ImplicitScratchView<T> RodBatch<T>::implicit_scratch_view() {
+void RodBatch<T>::reserve_implicit_scratch(int threads) {
+  int cells = 0;
+  for (const Segment& r : segments) cells = std::max(cells, r.end - r.begin);
+  threads = std::max(threads, 1);
+  if (cells <= scratch.visc_cells && threads <= scratch.visc_threads) return;
+  scratch.visc_cells = std::max(cells, scratch.visc_cells);
+  scratch.visc_threads = std::max(threads, scratch.visc_threads);
+  const std::size_t n = std::size_t(scratch.visc_cells) * std::size_t(scratch.visc_threads);
+  for (auto& a : scratch.visc_G) a.resize(n, T(0));
+  for (auto& a : scratch.visc_g) a.resize(n, T(0));
+}
+
+template <class T>
+ImplicitScratchView<T> RodBatch<T>::implicit_scratch_view(int thread, int cell_offset) {
+  const std::size_t at = std::size_t(thread) * std::size_t(scratch.visc_cells) + std::size_t(cell_offset);
   ImplicitScratchView<T> v{};
-  for (int i = 0; i < 36; ++i) {
-    if (scratch.visc_G[i].size() != std::size_t(slots_)) scratch.visc_G[i].resize(slots_, T(0));
-    v.G[i] = scratch.visc_G[i].data();
-  }
-  for (int i = 0; i < 6; ++i) {
-    if (scratch.visc_g[i].size() != std::size_t(slots_)) scratch.visc_g[i].resize(slots_, T(0));
-    v.g[i] = scratch.visc_g[i].data();
-  }
+  for (int i = 0; i < 36; ++i) v.G[i] = scratch.visc_G[i].data() + at;
+  for (int i = 0; i < 6; ++i) v.g[i] = scratch.visc_g[i].data() + at;
   return v;
 }
 
@@ -374,11 +383,14 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     if (big) seg.fused = false;
     info.offset = static_cast<int>(slots);
     info.clamped_root = s.clamped_root;
+    info.stiff_implicit = s.stiff_implicit;
+    b.any_stiff_ = b.any_stiff_ || s.stiff_implicit;
     try {
       validate_rod(s);
       info.elastic = resolve_material(s.material);
       info.section = section_properties(s.section, info.elastic.nu);
       info.tau = resolve_damping(s.damping, info.elastic);
+      info.damped = info.tau.shear > 0 || info.tau.extension > 0;
     } catch (const InputError& e) {
       throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
     }

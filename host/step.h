@@ -19,6 +19,8 @@
 #include <string>
 #include <utility>
 
+#include <omp.h>
+
 #include "host/launch.h"
 #include "kernels/energy.h"
 #include "manyrods/batch.h"
@@ -97,21 +99,48 @@ void kick(RodBatch<T>& b, T h, const Exec& ex) {
 //                  reference.
 enum class Viscous { implicit, explicit_rate };
 
-// Stage 3b: the implicit viscous update, rod by rod (the scratch view must
-// be taken outside any parallel region: it allocates on first use).
+// Runs run(segment, exec, thread) on every segment: the fused ones in
+// parallel, every other one at a time (even, then odd: no slot is read while
+// another thread writes it; segments only read their neighbours' ghost
+// slots, which never change), `thread` being the OpenMP thread number; then
+// the big ones one by one with all threads (thread = 0).
+template <class T, class F>
+void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
+  const int n = int(b.segments.size());
+  const Exec serial{1};
+  for (int parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for num_threads(ex.threads) schedule(static, 1) if (ex.threads > 1 && n > 2)
+    for (int i = parity; i < n; i += 2)
+      if (b.segments[i].fused) run(b.segments[i], serial, omp_get_thread_num());
+  }
+  for (const Segment& r : b.segments)
+    if (!r.fused) run(r, ex, 0);
+}
+
+// Stage 3b on the rods of segment r, rod by rod: the backward-Euler solve
+// (kernels/viscous_implicit.h) of every rod that needs one: damped rods when
+// kT.kelvin_voigt (the Kelvin–Voigt term is solved here), stiff rods
+// (RodSpec::stiff_implicit) always. Undamped, non-stiff rods pay nothing.
+// `thread` picks the elimination buffer (reserve_implicit_scratch first).
 template <Terms kT, class T>
-void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r,
-                    const ImplicitScratchView<T>& sc) {
+void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
 #pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 16) if (ex.threads > 1 && r.rod_end - r.rod_begin > 1)
-  for (int i = r.rod_begin; i < r.rod_end; ++i)
-    viscous_implicit_rod<kT>(b.rods[i].offset + 1, b.rods[i].elements + 1, h, m, s, sc);
+  for (int i = r.rod_begin; i < r.rod_end; ++i) {
+    const RodInfo& rod = b.rods[i];
+    if (!(rod.stiff_implicit || (kT.kelvin_voigt && rod.damped))) continue;
+    const int first = rod.offset + 1;
+    viscous_implicit_rod<kT>(first, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s,
+                             b.implicit_scratch_view(thread, first - r.begin));
+  }
 }
 template <Terms kT, class T>
 void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
-  const ImplicitScratchView<T> sc = b.implicit_scratch_view();
-  viscous_update<kT>(b, h, ex, whole(b), sc);
+  b.reserve_implicit_scratch(ex.threads);
+  for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
+    viscous_update<kT>(b, h, e, r, thread);
+  });
 }
 
 // `count` Position Verlet steps of length dt for every rod in the batch.
@@ -120,40 +149,34 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
 // segment (≤ 2048 slots, in L2) runs all stages of all `count` steps before
 // the next segment is touched (temporal blocking: rods do not interact, so
 // the order does not change any result), instead of four sweeps over the
-// whole batch per step. Segments only read ghost slots of their neighbours,
-// whose values never change, so threads take every other segment at a time
-// (even, then odd: no slot is read while another thread writes it), and each
-// slot is computed by the same instructions whatever the thread count or
-// `count`. A rod longer than a segment is stepped stage by stage, with all
-// threads on each stage.
+// whole batch per step. Threads take whole segments (for_each_segment), so
+// each slot is computed by the same instructions whatever the thread count
+// or `count`. A rod longer than a segment is stepped stage by stage, with
+// all threads on each stage.
 template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
 void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {}) {
-  constexpr bool kImplicit = kT.kelvin_voigt && kV == Viscous::implicit;
+  constexpr bool kImplicitKV = kT.kelvin_voigt && kV == Viscous::implicit;
   constexpr Terms kExplicit = [] {
     Terms t = kT;
-    if (kImplicit) t.kelvin_voigt = false;
+    if (kImplicitKV) t.kelvin_voigt = false;
     return t;
   }();
-  ImplicitScratchView<T> visc{};
-  if constexpr (kImplicit) visc = b.implicit_scratch_view();
-  auto run = [&](const Segment& r, const Exec& e) {
+  constexpr Terms kSolve = [] {  // what the implicit solve integrates
+    Terms t = kT;
+    t.kelvin_voigt = kImplicitKV;
+    return t;
+  }();
+  const bool solve = kImplicitKV || b.any_stiff();
+  if (solve) b.reserve_implicit_scratch(ex.threads);
+  for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
     for (std::int64_t i = 0; i < count; ++i) {
       drift(b, T(0.5) * dt, e, r);
       compute_resultants<kExplicit>(b, e, r);
       kick<kExplicit>(b, dt, e, r);
-      if constexpr (kImplicit) viscous_update<kT>(b, dt, e, r, visc);
+      if (solve) viscous_update<kSolve>(b, dt, e, r, thread);
       drift(b, T(0.5) * dt, e, r);
     }
-  };
-  const int n = int(b.segments.size());
-  const Exec serial{1};
-  for (int parity = 0; parity < 2; ++parity) {
-#pragma omp parallel for num_threads(ex.threads) schedule(static, 1) if (ex.threads > 1 && n > 2)
-    for (int i = parity; i < n; i += 2)
-      if (b.segments[i].fused) run(b.segments[i], serial);
-  }
-  for (const Segment& r : b.segments)
-    if (!r.fused) run(r, ex);
+  });
   for (std::int64_t i = 0; i < count; ++i) b.state.time += double(dt);  // as `count` step() calls
   b.state.steps += count;
 }
@@ -223,6 +246,10 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {}) {
     if (kImplicit) t.kelvin_voigt = false;
     return t;
   }();
+  if (b.any_stiff())
+    throw std::invalid_argument(
+        "step_pefrl: the batch has stiff rods (RodSpec::stiff_implicit), which only Position Verlet "
+        "steps stably; use step/step_n/advance with Integrator::position_verlet");
   const T xi = T(Pefrl::xi) * dt, chi = T(Pefrl::chi) * dt;
   const T mid = T(1 - 2 * (Pefrl::chi + Pefrl::xi)) * dt;
   const T outer = T(0.5 - Pefrl::lambda) * dt, inner = T(Pefrl::lambda) * dt;

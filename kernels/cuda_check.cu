@@ -56,7 +56,7 @@ __global__ void viscous_kernel(int rods, const int* first, const int* cells, T h
   constexpr Terms kT = terms_from_mask(kMask);
   const int r = blockIdx.x * blockDim.x + threadIdx.x;
   if (r >= rods) return;
-  viscous_implicit_rod<kT>(first[r], cells[r], h, m, s, sc);
+  viscous_implicit_rod<kT>(first[r], cells[r], h, kT.kelvin_voigt ? T(0) : h, m, s, sc);
 }
 
 template <Terms kT, class T>

@@ -28,8 +28,25 @@
 // with 6×6 Cholesky factors, one rod per call: data-parallel over rods.
 // Fixed unknowns (clamped node, ghost element) keep u = 0.
 //
+// Stiff rods (RodSpec::stiff_implicit, "frame-rate hair"): the same solve
+// also integrates the shear, stretch and twist STIFFNESS linearly implicitly.
+// For a stiffness K_s = Σ l̂ B_kᵀ C_s B_k, backward Euler on the elastic force
+// at the end of the kick, F_s(x + h u⁺) ≈ F_s(x) − h K_s u⁺, adds exactly the
+// viscous form above with τ replaced by β h, β = 1 (`stiff_h` = h). For one
+// mode of frequency ω (Position Verlet drift–kick–drift with the force
+// explicit and −β h² ω² u⁺ implicit) the step's spectral radius stays ≤ 1 for
+// every hω when β ≥ ½, and tends to 0 as hω → ∞ for β = 1: the unresolved
+// shear/stretch/twist oscillations are annihilated and those strains follow
+// their quasi-static values (the inextensible, unshearable limit as h ω → ∞),
+// while bending, whose rates hardly strain shear or stretch, stays explicit
+// and second order. The stable step is then the bending one (stable_dt with
+// StableDtOptions::stiff_implicit). The added damping acts on the stiff
+// strain RATES only: a slowly varying stretch or shear (rate σ̇ ≪ σ/h) is
+// disturbed by O(h σ̇), i.e. first order in h.
+//
 // reads: model, state geometry and velocities  writes: node_v, elem_w of the
-// rod, and the elimination scratch G (36 per slot) and g (6 per slot)
+// rod, and the elimination scratch G (36 per cell) and g (6 per cell), indexed
+// by the rod's cell c = 0 … cells−1 (the host passes a per-thread buffer)
 #pragma once
 
 #include "kernels/resultants.h"
@@ -39,8 +56,8 @@ namespace manyrods {
 
 template <class T>
 struct ImplicitScratchView {
-  T* G[36];  // [36][slots] Â_c⁻¹ U_c, row-major 6×6
-  T* g[6];   // [6][slots]  Â_c⁻¹ ŷ_c
+  T* G[36];  // [36][cells] Â_c⁻¹ U_c, row-major 6×6
+  T* g[6];   // [6][cells]  Â_c⁻¹ ŷ_c
 };
 
 namespace viscous_detail {
@@ -94,13 +111,22 @@ MANYRODS_HD inline void cholesky6_solve(const Block6<T>& l, T* x) {
   }
 }
 
+// The retardation times in the solve: τ if the Kelvin–Voigt term is solved
+// here (kT.kelvin_voigt), plus `stiff_h` for the stiff components: shear and
+// stretch of an element, twist (not bending) of a joint.
+template <Terms kT, class T>
+MANYRODS_HD inline vec3<T> solve_tau(const T* const tau[3], int k, T stiff_h, bool joint) {
+  const vec3<T> t = kT.kelvin_voigt ? load3(tau, k) : vec3<T>{T(0), T(0), T(0)};
+  return {joint ? t.x : t.x + stiff_h, joint ? t.y : t.y + stiff_h, t.z + stiff_h};
+}
+
 // Element k's viscous weight W = l̂ V_F and maps (b1, b2, b3) scaled by l̂.
 template <Terms kT, class T>
-MANYRODS_HD inline void element_maps(int k, const ModelView<T>& m, const ConstStateView<T>& s,
+MANYRODS_HD inline void element_maps(int k, T stiff_h, const ModelView<T>& m, const ConstStateView<T>& s,
                                      vec3<T>& w, mat3<T>& b1, mat3<T>& b2, mat3<T>& b3) {
   const ElementStrain<T> es = element_strain(k, m, s);
   const T l = m.elem_rest_length[k], il = T(1) / l;
-  const vec3<T> c = load3(m.elem_stiffness, k), tau = load3(m.elem_tau, k);
+  const vec3<T> c = load3(m.elem_stiffness, k), tau = solve_tau<kT>(m.elem_tau, k, stiff_h, false);
   w = {kT.shear ? l * c.x * tau.x : T(0), kT.shear ? l * c.y * tau.y : T(0),
        kT.stretch ? l * c.z * tau.z : T(0)};
   for (int i = 0; i < 9; ++i) {
@@ -113,11 +139,12 @@ MANYRODS_HD inline void element_maps(int k, const ModelView<T>& m, const ConstSt
 
 // Voronoi k's weight W = D̂ V_M and maps (c1 for ω_{k−1}, c2 for ω_k).
 template <Terms kT, class T>
-MANYRODS_HD inline void voronoi_maps(int k, const ModelView<T>& m, const ConstStateView<T>& s,
+MANYRODS_HD inline void voronoi_maps(int k, T stiff_h, const ModelView<T>& m, const ConstStateView<T>& s,
                                      vec3<T>& w, mat3<T>& c1, mat3<T>& c2) {
   const VoronoiStrain<T> vs = voronoi_strain(k, m, s);
   const T d = m.vor_rest_length[k], id = T(1) / d;
-  const vec3<T> c = load3(m.vor_stiffness, k), tau = load3(m.vor_tau, k);
+  // bending stays explicit: only twist (z) gets stiff_h
+  const vec3<T> c = load3(m.vor_stiffness, k), tau = solve_tau<kT>(m.vor_tau, k, stiff_h, true);
   w = {kT.bend ? d * c.x * tau.x : T(0), kT.bend ? d * c.y * tau.y : T(0),
        kT.twist ? d * c.z * tau.z : T(0)};
   const mat3<T> ji = inverse_right_jacobian(vs.psi, vs.gamma);
@@ -132,8 +159,10 @@ MANYRODS_HD inline void voronoi_maps(int k, const ModelView<T>& m, const ConstSt
 
 // Backward-Euler viscous update of one rod whose cells occupy slots
 // [first, first + cells). Velocities in `s` are u⁻ on entry, u⁺ on exit.
+// kT.kelvin_voigt: the Kelvin–Voigt term is solved here; stiff_h > 0: the
+// shear, stretch and twist stiffness too (stiff rods, see above; 0 otherwise).
 template <Terms kT, class T>
-MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, const ModelView<T>& m,
+MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_h, const ModelView<T>& m,
                                              const StateView<T>& s, const ImplicitScratchView<T>& sc) {
   using namespace viscous_detail;
   const ConstStateView<T> cs = as_const(s);
@@ -153,7 +182,7 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, const Mo
     // element k: cells k (v_k, ω_k) and k+1 (v_{k+1})
     vec3<T> w;
     mat3<T> b1, b2, b3;
-    element_maps<kT>(k, m, cs, w, b1, b2, b3);
+    element_maps<kT>(k, stiff_h, m, cs, w, b1, b2, b3);
     add_xtwy(A, 0, 0, b1, w, b1, h);
     add_xtwy(A, 0, 3, b1, w, b2, h);
     add_xtwy(A, 3, 0, b2, w, b1, h);
@@ -163,14 +192,14 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, const Mo
     add_xtwy(carry, 0, 0, b3, w, b3, h);
     // Voronoi k+1: cells k (ω_k) and k+1 (ω_{k+1})
     mat3<T> c1, c2;
-    voronoi_maps<kT>(k + 1, m, cs, w, c1, c2);
+    voronoi_maps<kT>(k + 1, stiff_h, m, cs, w, c1, c2);
     add_xtwy(A, 3, 3, c1, w, c1, h);
     add_xtwy(U, 3, 3, c1, w, c2, h);
     add_xtwy(carry, 3, 3, c2, w, c2, h);
     // the Voronoi point k (to the previous cell) was added through `carry`,
     // except at the root, where it joins the clamp frame (ω = 0)
     if (c == 0) {
-      voronoi_maps<kT>(k, m, cs, w, c1, c2);
+      voronoi_maps<kT>(k, stiff_h, m, cs, w, c1, c2);
       add_xtwy(A, 3, 3, c2, w, c2, h);
     }
     // mass; fixed unknowns (zero inverse mass) become identity rows
@@ -221,11 +250,11 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, const Mo
       for (int i = 0; i < 6; ++i) G_prev.a[6 * i + j] = col[i];
     }
     for (int i = 0; i < 36; ++i) {
-      sc.G[i][k] = G_prev.a[i];
+      sc.G[i][c] = G_prev.a[i];
       u_prev.a[i] = U.a[i];
     }
     for (int i = 0; i < 6; ++i) {
-      sc.g[i][k] = y[i];
+      sc.g[i][c] = y[i];
       g_prev[i] = y[i];
     }
   }
@@ -235,8 +264,8 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, const Mo
     const int k = first + c;
     T x[6];
     for (int i = 0; i < 6; ++i) {
-      T v = sc.g[i][k];
-      for (int j = 0; j < 6; ++j) v -= sc.G[6 * i + j][k] * next[j];
+      T v = sc.g[i][c];
+      for (int j = 0; j < 6; ++j) v -= sc.G[6 * i + j][c] * next[j];
       x[i] = v;
     }
     for (int d = 0; d < 3; ++d) {

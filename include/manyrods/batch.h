@@ -44,6 +44,12 @@ struct RodSpec {
   // unshearable rod (CASES 1b). The viscous V_F scales with it.
   double shear_stretch_scale = 1;
   bool clamped_root = false;          // node 0 fixed, frame fixed at s = 0
+  // Stiff rods (hair, wire: shear, stretch and twist far stiffer than
+  // bending): integrate shear, stretch and twist linearly implicitly so that
+  // the stable step is the bending one (≈ 1e-4 s and more for hair instead of
+  // 4e-8 s). First order in the stiff components, which it damps; see
+  // kernels/viscous_implicit.h and README "Stiff rods". Position Verlet only.
+  bool stiff_implicit = false;
   std::optional<Mat3> root_frame;     // clamp frame at s = 0 (default: frames[0])
   // Rest shape. Empty = the given geometry is the rest shape (unstressed).
   std::vector<Vec3> rest_curvature;   // [n−1] U0 at interior Voronoi points, 1/m
@@ -81,6 +87,8 @@ struct RodInfo {
   int elements = 0;
   int offset = 0;  // o_r, first slot
   bool clamped_root = false;
+  bool stiff_implicit = false;  // RodSpec::stiff_implicit
+  bool damped = false;          // some retardation time > 0
   ElasticConstants elastic{};
   SectionProperties section{};
   RetardationTimes tau{};
@@ -112,10 +120,12 @@ struct State {
 template <class T>
 struct Scratch {
   std::array<Array<T>, 3> elem_force, elem_couple, vor_moment, vor_kxm;
-  // Block elimination of the implicit viscous update (kernels/viscous_implicit.h);
-  // allocated on first use only.
+  // Block elimination of the implicit viscous update (kernels/viscous_implicit.h):
+  // one buffer of `visc_cells` cells per thread (a segment's worth, not the
+  // batch's), allocated on first use only.
   std::array<Array<T>, 36> visc_G;
   std::array<Array<T>, 6> visc_g;
+  int visc_cells = 0, visc_threads = 0;
   // Slots whose rotation exceeded the branch-free kernels' range in the
   // current stage (host/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
@@ -165,7 +175,13 @@ class RodBatch {
   ScratchView<T> scratch_view();
   ConstScratchView<T> scratch_view() const;
   LoadsView<T> loads_view() const;
-  ImplicitScratchView<T> implicit_scratch_view();  // allocates on first use
+  // Elimination buffer of thread t (< threads) for the rods of one segment:
+  // cell c of a rod starting at slot `first` of segment r is entry
+  // first − r.begin + c. Allocates on first use (not thread-safe: call
+  // before any parallel region, with the largest thread count).
+  void reserve_implicit_scratch(int threads);
+  ImplicitScratchView<T> implicit_scratch_view(int thread, int cell_offset);
+  bool any_stiff() const { return any_stiff_; }
 
   // Used by build_batch.
   void allocate(int slots, std::int64_t elements);
@@ -173,6 +189,9 @@ class RodBatch {
  private:
   int slots_ = 0;
   std::int64_t element_count_ = 0;
+  bool any_stiff_ = false;
+  template <class U>
+  friend RodBatch<U> build_batch(const std::vector<RodSpec>&, const Vec3&);
 };
 
 // Validates every rod (InputError naming rod and field) and lays them out.
