@@ -360,7 +360,8 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
   // Segments (batch.h): rods are packed into 64-aligned runs of at most
   // kSegmentSlots slots, with at least one spare slot at the end of each (the
   // tip ghost element reads the node after it), so that no kernel of one
-  // segment touches a slot another segment writes.
+  // segment touches a slot another segment writes. Stiff and other rods never
+  // share a segment (their kicks differ, kernels/integrate.h).
   auto round_up = [](std::int64_t x) { return (x + kGuard - 1) / kGuard * kGuard; };
   Segment seg;
   auto close_segment = [&](int next_rod) {
@@ -379,8 +380,10 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     info.elements = s.elements();
     const std::int64_t size = std::int64_t(std::max(info.elements, 0)) + 2;
     const bool big = size + 1 > kSegmentSlots;
-    if (big || slots + size + 1 - seg.begin > kSegmentSlots) close_segment(int(r));
+    const bool other_kind = int(r) > seg.rod_begin && seg.stiff != s.stiff_implicit;
+    if (big || other_kind || slots + size + 1 - seg.begin > kSegmentSlots) close_segment(int(r));
     if (big) seg.fused = false;
+    seg.stiff = s.stiff_implicit;
     info.offset = static_cast<int>(slots);
     info.clamped_root = s.clamped_root;
     info.stiff_implicit = s.stiff_implicit;

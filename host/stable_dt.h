@@ -14,11 +14,25 @@
 // With the explicit viscous treatment the Kelvin–Voigt term adds the limit
 // h ≲ 2/(τ ω_max²) (DESIGN.md §3), reported separately; the implicit
 // treatment has no τ limit.
+//
+// Stiff rods (RodSpec::stiff_implicit) integrate shear, stretch and twist
+// implicitly; what stays explicit is bending on the motion those stiff terms
+// allow, i.e. the flexural waves of the inextensible, unshearable rod (the
+// rotation of an element follows its centerline: a rotary oscillation
+// against bending alone would shear the element, which the implicit solve
+// forbids). Its stiffness in the node displacements: the joint curvature
+// κ_j = (t_{j+1} − t_j)/D̂_j with the unit tangents t = Δx/l̂, so
+// |∂κ_j/∂x| ≤ (1/(l̂_j D̂_j), 1/(l̂_j D̂_j) + 1/(l̂_{j+1} D̂_j), 1/(l̂_{j+1} D̂_j)) on
+// the three nodes of joint j, K = Σ_j B_j D̂_j aᵀa with B = max(EI₁, EI₂), and
+// Gershgorin on M^{-1/2} K M^{-1/2} over the node masses (rotary inertia
+// only lowers these frequencies; dropping it keeps the bound safe). For a
+// uniform rod this is ω² ≤ 16 EI/(ρA l̂⁴), the zig-zag flexural mode.
 #pragma once
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "manyrods/batch.h"
@@ -31,12 +45,62 @@ struct StableDt {
   double omega_max = 0;         // the Gershgorin bound on ω_max, rad/s
 };
 
+namespace detail {
+
+// Gershgorin bounds (ω², τ·ω²) of the flexural waves of stiff rod r (above).
+template <Terms kT, class T>
+std::pair<double, double> stiff_rod_bound(const RodBatch<T>& b, int r) {
+  if (!kT.bend) return {0.0, 0.0};
+  const int n = b.elements(r);
+  std::vector<double> rows(n + 1, 0.0), rows_tau(n + 1, 0.0), mass(n + 1, 0.0);
+  for (int j = 0; j <= n; ++j) {
+    const int k = b.node_index(r, j);
+    mass[j] = b.model.node_inv_mass[k] == 0 ? 0.0 : double(b.model.node_mass[k]);
+  }
+  auto length = [&](int e) { return double(b.model.elem_rest_length[b.elem_index(r, e)]); };
+  // joint j = −1 (root, at node 0: clamp frame and element 0) … n − 2
+  for (int j = -1; j + 1 < n; ++j) {
+    const int k = j < 0 ? b.root_vor_index(r) : b.vor_index(r, j);
+    const double d = b.model.vor_rest_length[k];
+    const double B = std::max(double(b.model.vor_stiffness[0][k]), double(b.model.vor_stiffness[1][k]));
+    const double tau = kT.kelvin_voigt ? std::max(double(b.model.vor_tau[0][k]), double(b.model.vor_tau[1][k])) : 0.0;
+    // nodes j, j+1, j+2 (the root joint's "element −1" is the fixed clamp frame)
+    const double la = j < 0 ? 0.0 : 1 / (length(j) * d), lb = 1 / (length(j + 1) * d);
+    const double a[3] = {la, la + lb, lb};
+    for (int p = 0; p < 3; ++p) {
+      const int i = j + p;
+      if (i < 0 || mass[i] == 0) continue;
+      double s = 0;
+      for (int q = 0; q < 3; ++q) {
+        const int m = j + q;
+        if (m >= 0 && mass[m] != 0) s += B * d * a[p] * a[q] / std::sqrt(mass[i] * mass[m]);
+      }
+      rows[i] += s;
+      rows_tau[i] += tau * s;
+    }
+  }
+  double w2 = 0, tw2 = 0;
+  for (int i = 0; i <= n; ++i) {
+    w2 = std::max(w2, rows[i]);
+    tw2 = std::max(tw2, rows_tau[i]);
+  }
+  return {w2, tw2};
+}
+
+}  // namespace detail
+
 template <Terms kT = kAllTerms, class T>
 StableDt stable_dt(const RodBatch<T>& b) {
   StableDt out;
   double wmax2 = 0, tau_w2 = 0;
   for (int r = 0; r < b.rod_count(); ++r) {
     const int n = b.elements(r);
+    if (b.rods[r].stiff_implicit) {
+      const auto [w2, tw2] = detail::stiff_rod_bound<kT>(b, r);
+      wmax2 = std::max(wmax2, w2);
+      tau_w2 = std::max(tau_w2, tw2);
+      continue;
+    }
     // dofs: node j → 3j..3j+2 (j = 0..n), element e → 3(n+1) + 3e
     const int nd = 3 * (n + 1) + 3 * n;
     std::vector<double> rows(nd, 0.0), mass(nd, 0.0), rows_tau(nd, 0.0);

@@ -74,7 +74,8 @@ void drift(RodBatch<T>& b, T h, const Exec& ex) {
 
 // kEulerOrder: order of the rigid-body (Jω)×ω sub-flow inside the kick
 // (kernels/integrate.h dynamic_element): 2 for Position Verlet, 4 for PEFRL.
-template <Terms kT, int kEulerOrder = 2, class T>
+// kStiff: the kick of stiff rods (see dynamic_element).
+template <Terms kT, int kEulerOrder = 2, bool kStiff = false, class T>
 void kick(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
   const ModelView<T> m = b.model_view();
   const LoadsView<T> l = b.loads_view();
@@ -82,7 +83,7 @@ void kick(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
   const StateView<T> s = b.state_view();
   launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA {
     dynamic_node<kT>(k, h, m, l, sc, s);
-    dynamic_element<kT, kEulerOrder>(k, h, m, l, sc, s);
+    dynamic_element<kT, kEulerOrder, kStiff>(k, h, m, l, sc, s);
   });
 }
 template <Terms kT, int kEulerOrder = 2, class T>
@@ -172,7 +173,10 @@ void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {}) {
     for (std::int64_t i = 0; i < count; ++i) {
       drift(b, T(0.5) * dt, e, r);
       compute_resultants<kExplicit>(b, e, r);
-      kick<kExplicit>(b, dt, e, r);
+      if (r.stiff)
+        kick<kExplicit, 2, true>(b, dt, e, r);
+      else
+        kick<kExplicit>(b, dt, e, r);
       if (solve) viscous_update<kSolve>(b, dt, e, r, thread);
       drift(b, T(0.5) * dt, e, r);
     }

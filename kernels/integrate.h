@@ -93,7 +93,18 @@ MANYRODS_HD inline vec3<T> euler_midpoint(vec3<T> w0, vec3<T> c, vec3<T> inertia
 //      fourth order for the sub-flow, so that a fourth-order composition of
 //      drifts and kicks (PEFRL) keeps its order when Jω ∦ ω. Each midpoint
 //      step does no work, so neither does the composition.
-template <Terms kT, int kEulerOrder = 2, class T>
+//
+// kStiffRod: for stiff rods (RodSpec::stiff_implicit, kernels/viscous_implicit.h)
+// the kick is followed by the implicit solve, and ω after the explicit kick
+// is not a physical velocity: the stiff couples on the tiny rotary inertia
+// make it 1e3–1e5 × the final one (h|ω| ≫ 1), which the solve then removes.
+// The midpoint iteration above diverges there (it contracts only for
+// h|ω| < 1) and its nonlinear (Jω)×ω of that ω is not removed by a linear
+// solve: measured, a swinging hair blows up after ~2 s. So stiff rods take
+// the rigid-body term explicitly at the start-of-kick ω (the physical one,
+// out of the last solve): first order, like the rest of the stiff scheme,
+// and negligible for thin rods, whose (Jω)×ω is tiny.
+template <Terms kT, int kEulerOrder = 2, bool kStiffRod = false, class T>
 MANYRODS_HD inline void dynamic_element(int k, T h, const ModelView<T>& m, const LoadsView<T>& l,
                                         const ConstScratchView<T>& sc, const StateView<T>& s) {
   static_assert(kEulerOrder == 2 || kEulerOrder == 4, "kEulerOrder: 2 or 4");
@@ -102,7 +113,9 @@ MANYRODS_HD inline void dynamic_element(int k, T h, const ModelView<T>& m, const
   if constexpr (kT.loads) c = c + element_external_couple<kT>(k, l, load_frame(cs.elem_Q, k));
   const vec3<T> inertia = load3(m.elem_inertia, k), inv = load3(m.elem_inv_inertia, k);
   vec3<T> w = load3(cs.elem_w, k);
-  if constexpr (kEulerOrder == 2) {
+  if constexpr (kStiffRod) {
+    w = w + h * hadamard(inv, c + euler_couple(inertia, w));
+  } else if constexpr (kEulerOrder == 2) {
     w = euler_midpoint(w, c, inertia, inv, h);
   } else {
     const T g1 = T(1.3512071919596576340), g2 = T(-1.7024143839193152681);  // 1/(2 − ∛2), 1 − 2γ₁

@@ -80,6 +80,7 @@ struct Segment {
   int begin = 0, end = 0;          // slots
   int rod_begin = 0, rod_end = 0;  // rods
   bool fused = true;
+  bool stiff = false;  // its rods are stiff (RodSpec::stiff_implicit): a segment holds only one kind
 };
 
 struct RodInfo {

@@ -1,0 +1,120 @@
+// Stiff rods at frame-rate steps (RodSpec::stiff_implicit; issue 5, CASES
+// 5b): shear, stretch and twist integrated linearly implicitly in the
+// block-tridiagonal solve (kernels/viscous_implicit.h), bending explicit.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <vector>
+
+#include "cases.h"
+
+using namespace manyrods;
+
+namespace {
+
+constexpr double kHairL = 0.2;
+
+// CASES 5b hair, clamped horizontally (d3 = e1) so that gravity swings it.
+RodSpec hair(int n, bool stiff) {
+  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, kHairL, n);
+  s.name = stiff ? "stiff hair" : "hair";
+  s.section = Section::circle(40e-6);
+  s.material = {1300, 3.9e9, 0.3};
+  s.clamped_root = true;
+  s.stiff_implicit = stiff;
+  return s;
+}
+
+// Tip positions at `frames` equal intervals of T.
+std::vector<Vec3> tip_trajectory(bool stiff, double dt, double T, int frames) {
+  auto b = build_batch<double>({hair(32, stiff)}, {0, 0, -9.81});
+  const std::int64_t per = std::llround(T / frames / dt);
+  std::vector<Vec3> tips;
+  for (int f = 0; f < frames; ++f) {
+    advance(b, dt, per);
+    tips.push_back(b.position(0, 32));
+  }
+  return tips;
+}
+
+double max_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double worst = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double d = std::hypot(a[i][0] - b[i][0], a[i][1] - b[i][1], a[i][2] - b[i][2]);
+    if (!(d <= worst)) worst = d;
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST(StiffRods, SwingingHairAtFrameRateStepsMatchesTheResolvedRun) {
+  // The hair released horizontal falls and swings (its tip drops by a
+  // quarter of its length in 0.1 s). Reference: the plain explicit scheme at
+  // half its stable step (≈ 2e-8 s, set by the shear/rotary mode), 5e6 steps;
+  // its own time error, O((2e-8)²), is ~1e-7 of the stiff runs' below.
+  const double T = 0.1;
+  const int frames = 10;
+  const auto plain = build_batch<double>({hair(32, false)}, {0, 0, -9.81});
+  const double dt_ref = 0.5 * stable_dt(plain).elastic;
+  ASSERT_LT(dt_ref, 1e-7);
+  const std::vector<Vec3> ref = tip_trajectory(false, T / frames / std::ceil(T / frames / dt_ref), T, frames);
+  // Stiff rods at 1e-4 s (frame rate, 5000 × the explicit step), 2e-4, 4e-4.
+  double err[3];
+  const double dts[3] = {1e-4, 2e-4, 4e-4};
+  for (int i = 0; i < 3; ++i) {
+    err[i] = max_distance(tip_trajectory(true, dts[i], T, frames), ref);
+    std::printf("stiff hair n=32, dt %.0e s: max tip error over %.1f s = %.3e m = %.3e L\n", dts[i], T, err[i],
+                err[i] / kHairL);
+  }
+  // Issue 5: tip-trajectory error below 1 % of the length at dt ≥ 1e-4 s.
+  EXPECT_LT(err[0], 1e-2 * kHairL);
+  // Convergence. The scheme is first order overall: bending (the motion) is
+  // explicit Position Verlet, second order, and the implicit stiff part
+  // perturbs it by O(h σ̇), first order in h but proportional to the stiff
+  // strain rates σ̇, which are tiny except right after the release. Over
+  // this 0.1 s window both parts show (measured orders 2.4 and 1.2 between
+  // 1e-4, 2e-4 and 4e-4 s); over 1 s the second-order part dominates
+  // (order 2.2–2.4, manyrods-accuracy, bench/RESULTS.md). Asserted: the
+  // error falls at least at first order (a defect that stops convergence,
+  // e.g. an O(1) strain error from the frozen-geometry solve, fails this).
+  for (int i = 0; i + 1 < 3; ++i) {
+    const double order = std::log2(err[i + 1] / err[i]);
+    std::printf("order between %.0e and %.0e: %.2f\n", dts[i], dts[i + 1], order);
+    EXPECT_GE(order, 1.0);
+  }
+}
+
+TEST(StiffRods, StiffAndOtherRodsInOneBatchStepAsAlone) {
+  // Stiff and other rods never share a segment (their kicks differ), so
+  // each rod's result is the one it gets alone: bit-identical.
+  const std::vector<RodSpec> mixed = {hair(16, true), cases::seed_cantilever(10), hair(20, true), hair(12, false)};
+  auto all = build_batch<double>(mixed, {0, 0, -9.81});
+  const double dt = 2e-8;
+  step_n(all, dt, 200, Exec{2});
+  for (int r = 0; r < 4; ++r) {
+    auto one = build_batch<double>({mixed[r]}, {0, 0, -9.81});
+    step_n(one, dt, 200);
+    for (int j = 0; j <= mixed[r].elements(); ++j)
+      for (int d = 0; d < 3; ++d) ASSERT_EQ(all.position(r, j)[d], one.position(0, j)[d]) << r << " " << j;
+  }
+}
+
+TEST(StiffRods, PefrlRefusesStiffRods) {
+  auto b = build_batch<double>({hair(8, true)}, {0, 0, -9.81});
+  EXPECT_THROW(step_pefrl(b, 1e-4), std::invalid_argument);
+}
+
+TEST(StiffRods, HairAtFrameRateStaysBoundedAndFiniteWithDamping) {
+  // With Kelvin–Voigt on (solved in the same system), 10 s at 1e-4 s, out of
+  // plane: finite, strains small (the stiff strains stay near their
+  // quasi-static values, ≪ 1e-2).
+  RodSpec s = hair(32, true);
+  s.damping = Damping::shear_extension(1e-3, 1e-3);
+  auto b = build_batch<double>({s}, {0, 0, -9.81});
+  for (int j = 1; j <= 32; ++j) b.set_velocity(0, j, {0, 0.05 * j / 32.0, 0});
+  ASSERT_NO_THROW(advance(b, 1e-4, 100000));
+  EXPECT_LT(cases::max_element_strain(b, 0), 1e-2);
+}
