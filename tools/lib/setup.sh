@@ -13,6 +13,7 @@ MANYRODS_PACKAGES=(
   libeigen3-dev     # host-side linear algebra: statics, stable_dt, tests
   libgtest-dev      # GoogleTest
   libbenchmark-dev  # Google Benchmark (bench/)
+  gnuplot-nox       # PNG plots of the speed-vs-error study (tools/run-accuracy)
 )
 
 manyrods_install_deps() {
