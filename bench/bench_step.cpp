@@ -55,6 +55,9 @@ void run_step(benchmark::State& state, const std::string& scene, bool kv) {
   state.SetItemsProcessed(state.iterations() * kBlock * b.element_count());
   state.SetBytesProcessed(int64_t(double(state.iterations()) * kBlock * b.slots() * per_slot * sizeof(T)));
   state.SetLabel(label);
+  // simulated seconds per wall-clock second: what a stiff scene gains
+  state.counters["sim_s_per_s"] =
+      benchmark::Counter(double(state.iterations()) * kBlock * double(dt), benchmark::Counter::kIsRate);
 }
 
 #define MANYRODS_SCENE(scene)                                                                          \
@@ -88,6 +91,17 @@ MANYRODS_SCENE(cable)
 MANYRODS_SCENE(long)
 MANYRODS_SCENE(mixed)
 MANYRODS_SCENE(fibers)
+
+// Hair as stiff rods at frame-rate steps (Kelvin–Voigt on, solved with the
+// stiff terms): compare sim_s_per_s with BM_step_hair_*.
+void BM_step_hairstiff_float(benchmark::State& s) { run_step<float, kAllTerms, Viscous::implicit>(s, "hairstiff", true); }
+void BM_step_hairstiff_double(benchmark::State& s) { run_step<double, kAllTerms, Viscous::implicit>(s, "hairstiff", true); }
+void BM_step64_hairstiff_float(benchmark::State& s) {
+  run_step<float, kAllTerms, Viscous::implicit, 64>(s, "hairstiff", true);
+}
+BENCHMARK(BM_step_hairstiff_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_step_hairstiff_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_step64_hairstiff_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 
 }  // namespace
 
