@@ -266,6 +266,9 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
                          "cannot create /rods");
     write_vector(g.get(), "group", H5T_NATIVE_INT32, layout.rod_group, w.tmp);
     write_vector(g.get(), "width", H5T_NATIVE_DOUBLE, layout.rod_width, w.tmp);
+    std::string names;
+    for (std::size_t i = 0; i < layout.group_names.size(); ++i) names += (i ? "\n" : "") + layout.group_names[i];
+    attr_string(g.get(), "group_names", names, w.tmp);
   }
   const hsize_t nc = std::min<hsize_t>(hsize_t(w.nodes), 1 << 16), ec = std::min<hsize_t>(hsize_t(w.elements), 1 << 14);
   w.time = create_dataset(f, "time", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
@@ -426,6 +429,14 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   o.nodes = o.node_offsets.back();
   o.rod_group = read_vector<std::int32_t>(f, "rods/group", H5T_NATIVE_INT32, path);
   o.rod_width = read_vector<double>(f, "rods/width", H5T_NATIVE_DOUBLE, path);
+  if (std::int64_t(o.rod_group.size()) + 1 != std::int64_t(o.node_offsets.size()) ||
+      o.rod_width.size() != o.rod_group.size())
+    fail(path, "/rods/group and /rods/width do not have one entry per rod");
+  {
+    const Id g = checked(H5Gopen2(f, "rods", H5P_DEFAULT), H5Gclose, path, "cannot open /rods");
+    std::stringstream ss(read_attr_string(g.get(), "group_names", path, "/rods."));
+    for (std::string n; std::getline(ss, n);) o.group_names.push_back(n);
+  }
   r.frames = std::int64_t(o.time.size());
   {
     const Id sg = checked(H5Gopen2(f, "scene", H5P_DEFAULT), H5Gclose, path, "missing group /scene");

@@ -7,7 +7,8 @@
 //   /node_position        [frames, nodes, 3]       m, lab frame (float or double)
 //   /element_directors    [frames, elements, 3, 3] rows d1, d2, d3 (optional)
 //   /energy/{kinetic, elastic, potential, dissipated, dissipation_rate}  [frames]
-//   /rods/{group, width}  [rods]                   group index, section width (m)
+//   /rods/{group, width}  [rods]                   group index, section width (m);
+//                         attribute group_names (one per line)
 //   /scene                group; attributes text (the scene TOML), source
 //   /checkpoint           the full State: node_x, node_v [3, slots],
 //                         elem_Q [9, slots], elem_w [3, slots] in the run's
@@ -39,6 +40,7 @@ struct Layout {
   std::vector<std::int64_t> node_offsets, element_offsets;  // [rods + 1]
   std::vector<std::int32_t> rod_group;                     // [rods]
   std::vector<double> rod_width;                           // [rods]
+  std::vector<std::string> group_names;                    // [groups]
   bool float32 = false;
   bool directors = true;
 };
@@ -106,6 +108,7 @@ struct Output {
   std::vector<std::int64_t> node_offsets, element_offsets;
   std::vector<std::int32_t> rod_group;
   std::vector<double> rod_width;
+  std::vector<std::string> group_names;
   std::int64_t nodes = 0;
   std::vector<EnergyRow> energy;                         // [frames]
   std::string scene_text;

@@ -97,6 +97,7 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
     layout.rod_group.push_back(s.rod_group[r]);
     layout.rod_width.push_back(s.groups[s.rod_group[r]].width);
   }
+  for (const RodGroup& g : s.groups) layout.group_names.push_back(g.name);
   h5::RunInfo info{s.text, s.source, s.sim.integrator == Integrator::pefrl ? "pefrl" : "position_verlet", res.dt};
   h5::Writer w(opt.output, layout, info);
 

@@ -536,10 +536,22 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     Material material;
     Damping damping;
     const toml::table* table;
+    const toml::node* gravity_node = nullptr;
+  };
+  // Memory and index range before anything large is allocated.
+  auto check_size = [&](std::int64_t slots, std::int64_t elements) {
+    if (slots + 64 > std::int64_t(std::numeric_limits<int>::max()))
+      throw SceneError(source + ": the scene has " + std::to_string(elements) +
+                       " elements in all; a batch holds at most about 2.1e9 slots (int index)");
+    const std::uint64_t need = bytes_for(slots, elements, sc.sim.precision);
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
+      throw SceneError(source + ": the scene needs about " + num(double(need) / 1e9) + " GB (" +
+                       std::to_string(elements) + " elements), more than this machine's " +
+                       num(double(pages) * double(page) / 1e9) + " GB of memory");
   };
   std::vector<Pending> pending;
   std::int64_t slots = 0, elements = 0;
-  const toml::node* first_gravity = nullptr;
   for (std::size_t gi = 0; gi < groups->size(); ++gi) {
     const toml::table& gt = *groups->get(gi)->as_table();
     const Table g(ctx, gt, "rods." + std::to_string(gi),
@@ -582,13 +594,8 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
       const Table t = g.sub("terms", {"shear", "stretch", "bend", "twist", "kelvin_voigt", "gravity"});
       p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true), t.boolean("bend", true),
                    t.boolean("twist", true), t.boolean("kelvin_voigt", true), t.boolean("gravity", true)};
-      if (t.has("gravity")) {
-        if (first_gravity && first_gravity->value<bool>() != t.get("gravity")->value<bool>())
-          t.fail("gravity", "differs from an earlier group: gravity is one switch for the whole batch (set [simulation] gravity per scene)");
-        first_gravity = t.get("gravity");
-      }
+      if (t.has("gravity")) p.gravity_node = t.get("gravity");
     }
-    if (!first_gravity && !p.g.terms.gravity) first_gravity = g.get("terms");
     // resolve material and damping now, so that a library InputError names this group
     try {
       const ElasticConstants c = resolve_material(p.material);
@@ -598,26 +605,20 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
       const char* k = g.has("damping") ? "damping" : "material";
       g.fail(k, e.what());
     }
-    p.place = parse_placement(g, p.g.count, start, direction, normal);
     slots += std::int64_t(p.g.count) * (p.elements + 2);
     elements += std::int64_t(p.g.count) * p.elements;
+    check_size(slots, elements);  // before the placement allocates per-rod vectors
+    p.place = parse_placement(g, p.g.count, start, direction, normal);
     pending.push_back(std::move(p));
   }
   // all groups must agree on the gravity switch (checked above for explicit keys)
   for (std::size_t i = 1; i < pending.size(); ++i)
-    if (pending[i].g.terms.gravity != pending[0].g.terms.gravity)
+    if (pending[i].g.terms.gravity != pending[0].g.terms.gravity) {
+      const std::string msg = "differs from rods.0: gravity is one compile-time switch for the whole batch";
+      if (pending[i].gravity_node) ctx.fail(*pending[i].gravity_node, "rods." + std::to_string(i) + ".terms.gravity", msg);
       throw SceneError(source + ":" + std::to_string(pending[i].g.line) + ": rods." + std::to_string(i) +
-                       ".terms.gravity: differs from rods.0: gravity is one switch for the whole batch");
-
-  // Memory and index range before anything large is allocated.
-  if (slots + 64 > std::int64_t(std::numeric_limits<int>::max()))
-    throw SceneError(source + ": the scene has " + std::to_string(elements) +
-                     " elements in all; a batch holds at most about 2.1e9 slots (int index)");
-  const std::uint64_t need = bytes_for(slots, elements, sc.sim.precision);
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-  if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
-    throw SceneError(source + ": the scene needs about " + num(double(need) / 1e9) + " GB (" + std::to_string(elements) +
-                     " elements), more than this machine's " + num(double(pages) * double(page) / 1e9) + " GB of memory");
+                       ".terms.gravity: " + msg);
+    }
 
   for (std::size_t gi = 0; gi < pending.size(); ++gi) {
     Pending& p = pending[gi];

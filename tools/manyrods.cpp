@@ -65,17 +65,6 @@ std::string usd_name(const std::string& s, int index) {
   return n;
 }
 
-// Group names from the scene text (best effort: the [[rods]] name keys).
-std::vector<std::string> group_names(const std::string& scene_text, int groups) {
-  std::vector<std::string> names(groups);
-  try {
-    const Scene s = parse_scene(scene_text, "/scene");
-    for (int g = 0; g < groups && g < int(s.groups.size()); ++g) names[g] = s.groups[g].name;
-  } catch (const std::exception&) {
-  }
-  return names;
-}
-
 int export_usd(const std::string& in, const std::string& usd, int every) {
   const h5::Reader rd(in);
   const h5::Output& o = rd.output();
@@ -83,7 +72,8 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
   const int rods = int(o.node_offsets.size()) - 1;
   int groups = 0;
   for (int g : o.rod_group) groups = std::max(groups, g + 1);
-  const std::vector<std::string> names = group_names(o.scene_text, groups);
+  std::vector<std::string> names = o.group_names;
+  names.resize(std::size_t(groups));
   // time codes: frame times × fps, fps = 1 / (the first frame interval)
   const double fps = rd.frames() > 1 && o.time[1] > o.time[0] ? 1 / (o.time[1] - o.time[0]) : 1;
   std::vector<std::int64_t> frames;
@@ -224,9 +214,11 @@ int plot(const std::string& in, std::string dir) {
     f << gp.str();
   }
   const std::string cmd = "gnuplot " + quote(script);
-  const int rc = std::system(cmd.c_str());
+  const std::string log = dir + "/gnuplot.log";
+  const int rc = std::system((cmd + " 2> " + quote(log)).c_str());
   if (rc != 0) {
-    std::fprintf(stderr, "manyrods plot: gnuplot failed (exit %d); is gnuplot installed? script: %s\n", rc, script.c_str());
+    std::fprintf(stderr, "manyrods plot: gnuplot failed (exit %d); is gnuplot installed? script: %s, messages: %s\n", rc,
+                 script.c_str(), log.c_str());
     return 1;
   }
   for (const std::string& m : made) std::fprintf(stderr, "manyrods: wrote %s\n", m.c_str());
