@@ -264,3 +264,13 @@ TEST(H5io, H5pyReadsTheDocumentedLayout) {
     EXPECT_EQ(v, double(frames[2][i]));
   }
 }
+
+// Removes this test's temporary directory after all tests ran.
+class CleanUp : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(temp_dir(), ec);
+  }
+};
+const auto* const kCleanUp = ::testing::AddGlobalTestEnvironment(new CleanUp);

@@ -250,7 +250,9 @@ int main(int argc, char** argv) {
   CLI::App* sweep = app.add_subcommand("sweep", "run every variation of a scene as rods of one batch");
   sweep->add_option("scene", scene_path, "scene file (TOML)")->required();
   sweep->add_option("--vary", vary, "KEY=lo:hi:n | KEY=lo:hi | KEY=v1,v2,.. (e.g. rods.0.damping.tau_extension=0.01:0.1:64)")
-      ->required();
+      ->required()
+      ->allow_extra_args(false)  // one KEY=SPEC per --vary (repeat it), so a scene after it stays positional
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   sweep->add_option("--samples", samples, "random sampling: number of variations")->check(CLI::NonNegativeNumber);
   sweep->add_option("--seed", seed, "random sampling: seed");
   sweep->add_option("-o,--output", output, "output HDF5 file")->required();
