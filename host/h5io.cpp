@@ -405,6 +405,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   get("node_v", c.node_v, 3);
   get("elem_Q", c.elem_Q, 9);
   get("elem_w", c.elem_w, 3);
+  c.from_sweep = H5Lexists(f.get(), "sweep", H5P_DEFAULT) > 0;
   return c;
 }
 

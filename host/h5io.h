@@ -66,6 +66,7 @@ struct Checkpoint {
   double last_rate = 0;          // 2·D_v at the last energy sample, W
   std::int64_t frames_written = 0;  // frames of the run up to this state
   std::string scene_text, scene_source;
+  bool from_sweep = false;  // the file is a sweep's (read only)
   // [3][slots], [3][slots], [9][slots], [3][slots] of float or double, as bytes
   std::vector<unsigned char> node_x, node_v, elem_Q, elem_w;
 };

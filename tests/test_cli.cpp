@@ -389,6 +389,11 @@ TEST(Cli, BadInputExitsNonZeroWithAClearMessage) {
   EXPECT_EQ(r.status, 2);
   expect_contains(r.err, "rods.0.material.youngs_modulus (set by --vary): must be > 0 (got -1)");
   expect_contains(r.err, "variation 0");
+  // a sweep's file cannot be restarted (its scene holds only the base variation)
+  ASSERT_EQ(cli("sweep " + good + " --vary rods.0.length=0.2,0.3 -o " + path("s.h5")).status, 0);
+  r = cli("run --restart " + path("s.h5") + " -o " + path("r.h5") + " --duration 1");
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "restarting a sweep is not supported");
 }
 
 // Removes this test's temporary directory after all tests ran.

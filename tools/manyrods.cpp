@@ -294,6 +294,11 @@ int main(int argc, char** argv) {
       RunResult r;
       if (!restart.empty()) {
         const h5::Checkpoint c = h5::read_checkpoint(restart);
+        if (c.from_sweep) {
+          std::fprintf(stderr, "manyrods: error: %s: restarting a sweep is not supported (run the sweep again with a longer --duration)\n",
+                       restart.c_str());
+          return 2;
+        }
         const Scene s = parse_scene(c.scene_text, restart + ":/scene");
         r = run_scene(s, opt, &c);
       } else {

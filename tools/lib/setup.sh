@@ -13,6 +13,11 @@ MANYRODS_PACKAGES=(
   libeigen3-dev     # host-side linear algebra: statics, stable_dt, tests
   libgtest-dev      # GoogleTest
   libbenchmark-dev  # Google Benchmark (bench/)
+  libtomlplusplus-dev  # toml++: scene files (host/scene.cpp), with file:line of every key
+  libcli11-dev      # CLI11: options and subcommands of build/bin/manyrods
+  libhdf5-dev       # HDF5 C library: trajectories, energies and checkpoints (host/h5io.cpp)
+  gnuplot-nox       # manyrods plot: PNG plots (pngcairo terminal)
+  python3-h5py      # tests/test_h5io: checks that h5py reads the output layout
 )
 
 manyrods_install_deps() {
