@@ -57,6 +57,8 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
   res.elements = b.element_count();
   const T dt = T(res.dt);
   const double duration = opt.duration > 0 ? opt.duration : s.sim.duration;
+  if (!(duration / res.dt < 1e15))
+    throw SceneError(s.source + ": duration / dt = " + std::to_string(duration / res.dt) + " steps is beyond any run");
   const std::int64_t total = std::max<std::int64_t>(1, std::llround(duration / res.dt));
   const std::int64_t per_frame = std::max<std::int64_t>(1, std::llround(s.sim.output_interval / res.dt));
   res.total_steps = total;

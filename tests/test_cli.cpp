@@ -145,6 +145,30 @@ TEST(Cli, RunWritesFramesEnergiesAndASummaryLine) {
     EXPECT_NEAR(e.kinetic + e.elastic + e.potential + e.dissipated, e0, 2e-3 * e0);
 }
 
+// The README's example scenes run (shortened with --duration) and export.
+TEST(Cli, ExampleScenesRun) {
+  const std::string scenes = MANYRODS_SCENES;
+  struct Example {
+    const char* file;
+    const char* duration;
+    int rods;
+  };
+  for (const Example& e : {Example{"seed_cantilever", "0.01", 1}, Example{"hair_groom", "2e-6", 64},
+                           Example{"cable_bundle", "0.002", 16}}) {
+    SCOPED_TRACE(e.file);
+    const std::string out = path(std::string(e.file) + ".h5");
+    const Result r = cli("run " + scenes + "/" + e.file + ".toml -o " + out + " --duration " + e.duration);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const h5::Reader rd(out);
+    EXPECT_EQ(int(rd.output().node_offsets.size()) - 1, e.rods);
+    EXPECT_GE(rd.frames(), 2);
+    std::vector<double> p;
+    rd.read_positions(rd.frames() - 1, p);
+    for (double x : p) ASSERT_TRUE(std::isfinite(x));
+    EXPECT_EQ(cli("export " + out + " --usd " + path(std::string(e.file) + ".usda") + " --every 5").status, 0);
+  }
+}
+
 TEST(Cli, RestartIsBitIdenticalToAnUninterruptedRun) {
   struct Variant {
     const char* name;

@@ -74,7 +74,9 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
   for (int g : o.rod_group) groups = std::max(groups, g + 1);
   std::vector<std::string> names = o.group_names;
   names.resize(std::size_t(groups));
-  // time codes: frame times × fps, fps = 1 / (the first frame interval)
+  // time code = frame index; timeCodesPerSecond = 1 / (the frame interval),
+  // so the animation plays in simulated real time (only the run's last frame
+  // can be closer to the one before; it keeps its index)
   const double fps = rd.frames() > 1 && o.time[1] > o.time[0] ? 1 / (o.time[1] - o.time[0]) : 1;
   std::vector<std::int64_t> frames;
   for (std::int64_t f = 0; f < rd.frames(); f += every) frames.push_back(f);
@@ -86,8 +88,8 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
     out.precision(9);
     out << "#usda 1.0\n(\n    defaultPrim = \"manyrods\"\n    doc = \"manyrods export of " << in << "\"\n"
         << "    metersPerUnit = 1\n    upAxis = \"Z\"\n"
-        << "    startTimeCode = " << o.time[frames.front()] * fps << "\n    endTimeCode = " << o.time[frames.back()] * fps
-        << "\n    timeCodesPerSecond = " << fps << "\n)\n\n";
+        << "    startTimeCode = " << frames.front() << "\n    endTimeCode = " << frames.back()
+        << "\n    timeCodesPerSecond = " << fps << "\n    framesPerSecond = " << fps << "\n)\n\n";
     out << "def Xform \"manyrods\"\n{\n";
     std::vector<std::vector<double>> pos(frames.size());
     for (std::size_t k = 0; k < frames.size(); ++k) rd.read_positions(frames[k], pos[k]);
@@ -111,7 +113,7 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
       out << "] (\n            interpolation = \"vertex\"\n        )\n";
       out << "        point3f[] points.timeSamples = {\n";
       for (std::size_t k = 0; k < frames.size(); ++k) {
-        out << "            " << o.time[frames[k]] * fps << ": [";
+        out << "            " << frames[k] << ": [";
         bool f1 = true;
         for (int r : members)
           for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j) {
