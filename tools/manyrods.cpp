@@ -237,7 +237,7 @@ int main(int argc, char** argv) {
   int threads = default_threads(), samples = 0, every = 1;
   double until = -1, duration = -1;
   std::uint64_t seed = 0;
-  bool progress = isatty(2), no_progress = false;
+  bool progress = isatty(2), no_progress = false, force_progress = false;
   std::vector<std::string> vary;
 
   CLI::App* run = app.add_subcommand("run", "run a scene into an HDF5 file");
@@ -247,7 +247,8 @@ int main(int argc, char** argv) {
   run->add_option("--threads", threads, "OpenMP threads (results do not depend on it)")->check(CLI::PositiveNumber);
   run->add_option("--until", until, "stop at this simulated time (s); the file keeps a checkpoint to --restart from");
   run->add_option("--duration", duration, "override [simulation] duration (s)")->check(CLI::PositiveNumber);
-  run->add_flag("--no-progress", no_progress, "no progress line on stderr");
+  run->add_flag("--no-progress", no_progress, "no progress line on stderr (default: shown when stderr is a terminal)");
+  run->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
 
   CLI::App* sweep = app.add_subcommand("sweep", "run every variation of a scene as rods of one batch");
   sweep->add_option("scene", scene_path, "scene file (TOML)")->required();
@@ -261,7 +262,8 @@ int main(int argc, char** argv) {
   sweep->add_option("--csv", csv, "summary CSV (default: the output with .csv)");
   sweep->add_option("--threads", threads, "OpenMP threads")->check(CLI::PositiveNumber);
   sweep->add_option("--duration", duration, "override [simulation] duration (s)")->check(CLI::PositiveNumber);
-  sweep->add_flag("--no-progress", no_progress, "no progress line on stderr");
+  sweep->add_flag("--no-progress", no_progress, "no progress line on stderr (default: shown when stderr is a terminal)");
+  sweep->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
 
   CLI::App* exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
   exp->add_option("input", input, "manyrods HDF5 output")->required();
@@ -277,6 +279,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
+  if (force_progress) progress = true;
   if (no_progress) progress = false;
 
   try {
