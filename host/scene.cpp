@@ -367,8 +367,10 @@ Material parse_material(const Table& g) {
   Material m;
   m.density = t.positive("density");
   m.youngs_modulus = t.positive("youngs_modulus");
-  if (t.has("poisson_ratio") == t.has("shear_modulus"))
-    t.missing("poisson_ratio", "give exactly one of poisson_ratio and shear_modulus");
+  if (t.has("poisson_ratio") && t.has("shear_modulus"))
+    t.fail("shear_modulus", "give poisson_ratio or shear_modulus, not both");
+  if (!t.has("poisson_ratio") && !t.has("shear_modulus"))
+    t.missing("poisson_ratio", "give poisson_ratio or shear_modulus");
   if (t.has("poisson_ratio")) {
     m.poisson_ratio = t.number("poisson_ratio");
     if (!(m.poisson_ratio > -1 && m.poisson_ratio <= 0.5))
@@ -447,7 +449,12 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
       toml::node* next = t->get(p);
       if (!next) {
         if (!last) bad("no key '" + p + "' in the scene");
-        t->insert_or_assign(p, o.value);
+        // keys the schema reads as integers get an integer when the value is whole
+        const bool integer_key = p == "count" || p == "elements" || p == "columns" || p == "seed";
+        if (integer_key && o.value == std::floor(o.value) && std::abs(o.value) < 9e18)
+          t->insert_or_assign(p, std::int64_t(o.value));
+        else
+          t->insert_or_assign(p, o.value);
         ctx.overridden.insert(t->get(p));
         return;
       }

@@ -209,6 +209,10 @@ TEST(Scene, OverridesReachTheRods) {
   EXPECT_EQ(s.rods[0].damping.p2, 0.05);
   EXPECT_EQ(s.rods[0].elements(), 9);
   EXPECT_NEAR(s.rods[0].nodes.back()[2], 0.5, 1e-15);
+  // an absent integer key is added as an integer (a whole value) …
+  const Scene c = parse_scene(scene_text("placement = { kind = \"grid\", spacing = [0.1, 0.1] }\n"), "v.toml",
+                              {{"rods.0.count", 4}});
+  EXPECT_EQ(c.rods.size(), 4u);
   expect_error(scene_text(), {"--vary rods.0.elements", "integer"}, {{"rods.0.elements", 2.5}});
   expect_error(scene_text(), {"--vary rods.0.nosuch.key", "no key 'nosuch'"}, {{"rods.0.nosuch.key", 1}});
   expect_error(scene_text(), {"simulation", "cannot be varied"}, {{"simulation.dt", 1}});
@@ -278,7 +282,9 @@ TEST(SceneErrors, InconsistentOrMissing) {
   expect_error("[[rods]]\nelements = 3\n", {"bad.toml: simulation: missing table [simulation]"});
   expect_error("[simulation]\ndt = 1e-4\nduration = 1.0\n", {"bad.toml: rods: missing"});
   expect_error(head + sec + "material = { density = 1.0, youngs_modulus = 1.0, poisson_ratio = 0.3, shear_modulus = 0.4 }\n",
-               {"bad.toml:8:", "rods.0.material.poisson_ratio: missing (give exactly one of poisson_ratio and shear_modulus)"});
+               {"bad.toml:8:", "rods.0.material.shear_modulus: give poisson_ratio or shear_modulus, not both"});
+  expect_error(head + sec + "material = { density = 1.0, youngs_modulus = 1.0 }\n",
+               {"bad.toml:8:", "rods.0.material.poisson_ratio: missing (give poisson_ratio or shear_modulus)"});
   expect_error(head + sec + mat + "count = 3\n", {"bad.toml:4:1: rods.0.placement: missing (count > 1 needs a placement"});
   expect_error(head + mat + "section = { shape = \"hollow_circle\", outer_radius = 0.01, inner_radius = 0.01 }\n",
                {"bad.toml:8:", "rods.0.section.inner_radius: must be < outer_radius"});
