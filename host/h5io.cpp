@@ -50,7 +50,9 @@ class Id {
   herr_t (*close_)(hid_t) = nullptr;
 };
 
-[[noreturn]] void fail(const std::string& path, const std::string& what) { throw H5Error(path + ": " + what); }
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw H5Error(path + ": " + what);
+}
 
 Id checked(hid_t id, herr_t (*close)(hid_t), const std::string& path, const std::string& what) {
   if (id < 0) fail(path, what);
@@ -88,7 +90,8 @@ bool has_attr(hid_t obj, const char* name) { return H5Aexists(obj, name) > 0; }
 
 std::string read_attr_string(hid_t obj, const char* name, const std::string& path, const std::string& where) {
   if (!has_attr(obj, name)) fail(path, "missing attribute " + where + name);
-  const Id a = checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, path, "cannot open attribute " + where + name);
+  const Id a =
+      checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, path, "cannot open attribute " + where + name);
   const Id ft(H5Aget_type(a.get()), H5Tclose);
   if (H5Tget_class(ft.get()) != H5T_STRING) fail(path, "attribute " + where + name + " is not a string");
   if (H5Tis_variable_str(ft.get()) > 0) {
@@ -109,9 +112,11 @@ std::string read_attr_string(hid_t obj, const char* name, const std::string& pat
 }
 
 template <class V>
-V read_attr_scalar(hid_t obj, const char* name, hid_t type, const std::string& path, const std::string& where) {
+V read_attr_scalar(hid_t obj, const char* name, hid_t type, const std::string& path,
+                   const std::string& where) {
   if (!has_attr(obj, name)) fail(path, "missing attribute " + where + name);
-  const Id a = checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, path, "cannot open attribute " + where + name);
+  const Id a =
+      checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, path, "cannot open attribute " + where + name);
   V v{};
   check(H5Aread(a.get(), type, &v), path, "cannot read attribute " + where + name);
   return v;
@@ -141,8 +146,9 @@ void write_vector(hid_t loc, const char* name, hid_t type, const std::vector<V>&
   const std::vector<hsize_t> dims{hsize_t(v.size())};
   const std::vector<hsize_t> chunk{std::max<hsize_t>(1, std::min<hsize_t>(v.size(), 1 << 16))};
   const Id d = create_dataset(loc, name, type, dims, chunk, false, path);
-  if (!v.empty()) check(H5Dwrite(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path,
-                        std::string("cannot write ") + name);
+  if (!v.empty())
+    check(H5Dwrite(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path,
+          std::string("cannot write ") + name);
 }
 
 // Appends one row (all but the first dimension) to an extendable dataset.
@@ -177,7 +183,8 @@ std::string dims_str(const std::vector<hsize_t>& d) {
 
 Id open_dataset(hid_t loc, const char* name, const std::string& path) {
   if (H5Lexists(loc, name, H5P_DEFAULT) <= 0) fail(path, std::string("missing dataset ") + name);
-  return checked(H5Dopen2(loc, name, H5P_DEFAULT), H5Dclose, path, std::string("cannot open dataset ") + name);
+  return checked(H5Dopen2(loc, name, H5P_DEFAULT), H5Dclose, path,
+                 std::string("cannot open dataset ") + name);
 }
 
 template <class V>
@@ -204,7 +211,8 @@ Id open_manyrods(const std::string& path) {
     fail(path, "an HDF5 file, but not a manyrods output (no root attribute format = \"manyrods\")");
   const auto v = read_attr_scalar<std::int64_t>(f.get(), "format_version", H5T_NATIVE_INT64, path, "/");
   if (v != kFormatVersion)
-    fail(path, "format_version " + std::to_string(v) + ", this manyrods reads " + std::to_string(kFormatVersion));
+    fail(path,
+         "format_version " + std::to_string(v) + ", this manyrods reads " + std::to_string(kFormatVersion));
   return f;
 }
 
@@ -267,19 +275,23 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
     write_vector(g.get(), "group", H5T_NATIVE_INT32, layout.rod_group, w.tmp);
     write_vector(g.get(), "width", H5T_NATIVE_DOUBLE, layout.rod_width, w.tmp);
     std::string names;
-    for (std::size_t i = 0; i < layout.group_names.size(); ++i) names += (i ? "\n" : "") + layout.group_names[i];
+    for (std::size_t i = 0; i < layout.group_names.size(); ++i)
+      names += (i ? "\n" : "") + layout.group_names[i];
     attr_string(g.get(), "group_names", names, w.tmp);
   }
-  const hsize_t nc = std::min<hsize_t>(hsize_t(w.nodes), 1 << 16), ec = std::min<hsize_t>(hsize_t(w.elements), 1 << 14);
+  const hsize_t nc = std::min<hsize_t>(hsize_t(w.nodes), 1 << 16),
+                ec = std::min<hsize_t>(hsize_t(w.elements), 1 << 14);
   w.time = create_dataset(f, "time", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
-  w.pos = create_dataset(f, "node_position", w.real_type(), {0, hsize_t(w.nodes), 3}, {1, nc, 3}, true, w.tmp);
+  w.pos =
+      create_dataset(f, "node_position", w.real_type(), {0, hsize_t(w.nodes), 3}, {1, nc, 3}, true, w.tmp);
   if (layout.directors)
-    w.dir = create_dataset(f, "element_directors", w.real_type(), {0, hsize_t(w.elements), 3, 3}, {1, ec, 3, 3},
-                           true, w.tmp);
+    w.dir = create_dataset(f, "element_directors", w.real_type(), {0, hsize_t(w.elements), 3, 3},
+                           {1, ec, 3, 3}, true, w.tmp);
   w.energy_group = checked(H5Gcreate2(f, "energy", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
                            "cannot create /energy");
   for (int i = 0; i < 5; ++i)
-    w.energy[i] = create_dataset(w.energy_group.get(), kEnergyNames[i], H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
+    w.energy[i] =
+        create_dataset(w.energy_group.get(), kEnergyNames[i], H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
   attr_string(w.energy_group.get(), "units", "J (dissipation_rate: W)", w.tmp);
 }
 
@@ -298,7 +310,8 @@ void Writer::append_frame(double t, const void* positions, const void* directors
     append_row(w.dir.get(), w.real_type(), w.frames, {hsize_t(w.elements), 3, 3}, directors, w.tmp,
                "element_directors");
   const double v[5] = {e.kinetic, e.elastic, e.potential, e.dissipated, e.dissipation_rate};
-  for (int i = 0; i < 5; ++i) append_row(w.energy[i].get(), H5T_NATIVE_DOUBLE, w.frames, {}, &v[i], w.tmp, kEnergyNames[i]);
+  for (int i = 0; i < 5; ++i)
+    append_row(w.energy[i].get(), H5T_NATIVE_DOUBLE, w.frames, {}, &v[i], w.tmp, kEnergyNames[i]);
   ++w.frames;
 }
 
@@ -319,7 +332,8 @@ void Writer::write_checkpoint(const Checkpoint& c) {
   const hid_t type = c.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
   const std::size_t es = c.float32 ? 4 : 8;
   auto put = [&](const char* name, const std::vector<unsigned char>& bytes, hsize_t rows) {
-    if (bytes.size() != rows * std::size_t(c.slots) * es) fail(w.tmp, std::string("checkpoint: wrong size of ") + name);
+    if (bytes.size() != rows * std::size_t(c.slots) * es)
+      fail(w.tmp, std::string("checkpoint: wrong size of ") + name);
     const hsize_t chunk = std::max<hsize_t>(1, std::min<hsize_t>(hsize_t(c.slots), 1 << 16));
     const Id d = create_dataset(g.get(), name, type, {rows, hsize_t(c.slots)}, {1, chunk}, false, w.tmp);
     check(H5Dwrite(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()), w.tmp,
@@ -334,8 +348,8 @@ void Writer::write_checkpoint(const Checkpoint& c) {
 void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
                          const std::vector<std::int32_t>& variation_first_rod) {
   Impl& w = *impl_;
-  const Id g = checked(H5Gcreate2(w.file.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
-                       "cannot create /sweep");
+  const Id g = checked(H5Gcreate2(w.file.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                       w.tmp, "cannot create /sweep");
   write_vector(g.get(), "variation_first_rod", H5T_NATIVE_INT32, variation_first_rod, w.tmp);
   auto group = [&](const char* name, const std::vector<Column>& cols) {
     const Id sg = checked(H5Gcreate2(g.get(), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
@@ -369,7 +383,8 @@ Checkpoint read_checkpoint(const std::string& path) {
   const Id f = open_manyrods(path);
   if (H5Lexists(f.get(), "checkpoint", H5P_DEFAULT) <= 0)
     fail(path, "no /checkpoint group (not a finished or interrupted manyrods run)");
-  const Id g = checked(H5Gopen2(f.get(), "checkpoint", H5P_DEFAULT), H5Gclose, path, "cannot open /checkpoint");
+  const Id g =
+      checked(H5Gopen2(f.get(), "checkpoint", H5P_DEFAULT), H5Gclose, path, "cannot open /checkpoint");
   Checkpoint c;
   const std::string where = "/checkpoint.";
   const std::string prec = read_attr_string(g.get(), "precision", path, where);
@@ -385,7 +400,8 @@ Checkpoint read_checkpoint(const std::string& path) {
   const Id sg = checked(H5Gopen2(f.get(), "scene", H5P_DEFAULT), H5Gclose, path, "missing group /scene");
   c.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
   c.scene_source = read_attr_string(sg.get(), "source", path, "/scene.");
-  if (c.slots <= 0 || !(c.dt > 0)) fail(path, "/checkpoint has slots = " + std::to_string(c.slots) + ", dt = " + std::to_string(c.dt));
+  if (c.slots <= 0 || !(c.dt > 0))
+    fail(path, "/checkpoint has slots = " + std::to_string(c.slots) + ", dt = " + std::to_string(c.dt));
   const hid_t type = c.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
   const std::size_t es = c.float32 ? 4 : 8;
   auto get = [&](const char* name, std::vector<unsigned char>& bytes, hsize_t rows) {
@@ -445,12 +461,14 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   }
   std::vector<std::vector<double>> e(5);
   for (int i = 0; i < 5; ++i) {
-    e[i] = read_vector<double>(f, (std::string("energy/") + kEnergyNames[i]).c_str(), H5T_NATIVE_DOUBLE, path);
+    e[i] =
+        read_vector<double>(f, (std::string("energy/") + kEnergyNames[i]).c_str(), H5T_NATIVE_DOUBLE, path);
     if (std::int64_t(e[i].size()) != r.frames)
-      fail(path, std::string("/energy/") + kEnergyNames[i] + " has " + std::to_string(e[i].size()) + " entries, /time " +
-                     std::to_string(r.frames));
+      fail(path, std::string("/energy/") + kEnergyNames[i] + " has " + std::to_string(e[i].size()) +
+                     " entries, /time " + std::to_string(r.frames));
   }
-  for (std::int64_t k = 0; k < r.frames; ++k) o.energy.push_back({e[0][k], e[1][k], e[2][k], e[3][k], e[4][k]});
+  for (std::int64_t k = 0; k < r.frames; ++k)
+    o.energy.push_back({e[0][k], e[1][k], e[2][k], e[3][k], e[4][k]});
   r.pos = open_dataset(f, "node_position", path);
   const auto dims = dataset_dims(r.pos.get());
   const std::vector<hsize_t> want{hsize_t(r.frames), hsize_t(o.nodes), 3};
@@ -479,7 +497,8 @@ void Reader::read_positions(std::int64_t f, std::vector<double>& out) const {
   out.resize(std::size_t(r.out.nodes) * 3);
   const Id fs(H5Dget_space(r.pos.get()), H5Sclose);
   const hsize_t start[3] = {hsize_t(f), 0, 0}, count[3] = {1, hsize_t(r.out.nodes), 3};
-  check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), r.path, "bad frame selection");
+  check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), r.path,
+        "bad frame selection");
   const Id ms(H5Screate_simple(3, count, nullptr), H5Sclose);
   check(H5Dread(r.pos.get(), H5T_NATIVE_DOUBLE, ms.get(), fs.get(), H5P_DEFAULT, out.data()), r.path,
         "cannot read /node_position frame " + std::to_string(f) + " (truncated or damaged file?)");

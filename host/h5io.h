@@ -38,9 +38,9 @@ struct H5Error : std::runtime_error {
 
 struct Layout {
   std::vector<std::int64_t> node_offsets, element_offsets;  // [rods + 1]
-  std::vector<std::int32_t> rod_group;                     // [rods]
-  std::vector<double> rod_width;                           // [rods]
-  std::vector<std::string> group_names;                    // [groups]
+  std::vector<std::int32_t> rod_group;                      // [rods]
+  std::vector<double> rod_width;                            // [rods]
+  std::vector<std::string> group_names;                     // [groups]
   bool float32 = false;
   bool directors = true;
 };
@@ -62,8 +62,8 @@ struct Checkpoint {
   std::int64_t slots = 0;
   double time = 0, dt = 0;
   std::int64_t steps = 0;
-  double dissipated = 0;         // ∫ 2·D_v dt so far, J
-  double last_rate = 0;          // 2·D_v at the last energy sample, W
+  double dissipated = 0;            // ∫ 2·D_v dt so far, J
+  double last_rate = 0;             // 2·D_v at the last energy sample, W
   std::int64_t frames_written = 0;  // frames of the run up to this state
   std::string scene_text, scene_source;
   bool from_sweep = false;  // the file is a sweep's (read only)
@@ -105,13 +105,13 @@ Checkpoint read_checkpoint(const std::string& path);
 
 // A whole output file in memory, as double (for export and plots).
 struct Output {
-  std::vector<double> time;                              // [frames]
+  std::vector<double> time;  // [frames]
   std::vector<std::int64_t> node_offsets, element_offsets;
   std::vector<std::int32_t> rod_group;
   std::vector<double> rod_width;
   std::vector<std::string> group_names;
   std::int64_t nodes = 0;
-  std::vector<EnergyRow> energy;                         // [frames]
+  std::vector<EnergyRow> energy;  // [frames]
   std::string scene_text;
   double dt = 0;
   bool has_sweep = false;

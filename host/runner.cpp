@@ -41,9 +41,12 @@ void from_bytes(std::array<Array<T>, N>& a, const std::vector<unsigned char>& in
 std::string eta(double s) {
   char buf[32];
   if (!std::isfinite(s)) return "?";
-  if (s < 120) std::snprintf(buf, sizeof buf, "%.0f s", s);
-  else if (s < 7200) std::snprintf(buf, sizeof buf, "%.1f min", s / 60);
-  else std::snprintf(buf, sizeof buf, "%.1f h", s / 3600);
+  if (s < 120)
+    std::snprintf(buf, sizeof buf, "%.0f s", s);
+  else if (s < 7200)
+    std::snprintf(buf, sizeof buf, "%.1f min", s / 60);
+  else
+    std::snprintf(buf, sizeof buf, "%.1f h", s / 3600);
   return buf;
 }
 
@@ -58,7 +61,8 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
   const T dt = T(res.dt);
   const double duration = opt.duration > 0 ? opt.duration : s.sim.duration;
   if (!(duration / res.dt < 1e15))
-    throw SceneError(s.source + ": duration / dt = " + std::to_string(duration / res.dt) + " steps is beyond any run");
+    throw SceneError(s.source + ": duration / dt = " + std::to_string(duration / res.dt) +
+                     " steps is beyond any run");
   const std::int64_t total = std::max<std::int64_t>(1, std::llround(duration / res.dt));
   const std::int64_t per_frame = std::max<std::int64_t>(1, std::llround(s.sim.output_interval / res.dt));
   res.total_steps = total;
@@ -100,7 +104,8 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
     layout.rod_width.push_back(s.groups[s.rod_group[r]].width);
   }
   for (const RodGroup& g : s.groups) layout.group_names.push_back(g.name);
-  h5::RunInfo info{s.text, s.source, s.sim.integrator == Integrator::pefrl ? "pefrl" : "position_verlet", res.dt};
+  h5::RunInfo info{s.text, s.source, s.sim.integrator == Integrator::pefrl ? "pefrl" : "position_verlet",
+                   res.dt};
   h5::Writer w(opt.output, layout, info);
 
   std::vector<T> pos, dir;

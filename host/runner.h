@@ -47,11 +47,11 @@ struct ProbeRecord {
 };
 
 struct RunOptions {
-  std::string output;                  // HDF5 path (written as <output>.tmp, renamed at the end)
+  std::string output;  // HDF5 path (written as <output>.tmp, renamed at the end)
   int threads = 1;
-  double until = -1;                   // stop at the first sample point at or after this time (< 0: never)
-  double duration = -1;                // overrides [simulation] duration when > 0
-  bool progress = false;               // progress line on stderr
+  double until = -1;      // stop at the first sample point at or after this time (< 0: never)
+  double duration = -1;   // overrides [simulation] duration when > 0
+  bool progress = false;  // progress line on stderr
   const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
   std::vector<Probe> probes;
   // Called before the file is closed (the sweep adds /sweep here).
@@ -64,7 +64,7 @@ struct RunResult {
   double time = 0;                                          // simulated time reached, s
   std::int64_t frames = 0;                                  // written to this file
   std::int64_t elements = 0;
-  bool interrupted = false;   // SIGINT or --until before the end
+  bool interrupted = false;  // SIGINT or --until before the end
   double wall_s = 0, element_steps_per_s = 0;
   std::vector<ProbeRecord> probes;
 };

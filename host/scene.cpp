@@ -3,6 +3,7 @@
 // error names file, line, column and the key path.
 #include "host/scene.h"
 
+#include <toml++/toml.h>
 #include <unistd.h>
 
 #include <Eigen/Dense>
@@ -13,7 +14,6 @@
 #include <numbers>
 #include <set>
 #include <sstream>
-#include <toml++/toml.h>
 
 namespace manyrods::scene {
 namespace {
@@ -48,13 +48,20 @@ struct Ctx {
 
 const char* type_name(const toml::node& n) {
   switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a float";
-    case toml::node_type::boolean: return "a boolean";
-    default: return "a date/time";
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::array:
+      return "an array";
+    case toml::node_type::string:
+      return "a string";
+    case toml::node_type::integer:
+      return "an integer";
+    case toml::node_type::floating_point:
+      return "a float";
+    case toml::node_type::boolean:
+      return "a boolean";
+    default:
+      return "a date/time";
   }
 }
 
@@ -73,9 +80,9 @@ struct Table {
         std::string list;
         for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
         const auto& b = k.source().begin;
-        const std::string loc = b.line ? ctx.source + ":" + std::to_string(b.line) + ":" +
-                                             std::to_string(b.column) + ": "
-                                       : ctx.where(v);
+        const std::string loc =
+            b.line ? ctx.source + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) + ": "
+                   : ctx.where(v);
         throw SceneError(loc + key(std::string(k.str())) + ": unknown key (allowed here: " + list + ")");
       }
     }
@@ -116,7 +123,8 @@ struct Table {
     if (!n->is_integer()) fail(k, std::string("must be an integer, got ") + type_name(*n));
     const std::int64_t v = *n->value<std::int64_t>();
     if (v < lo || v > hi)
-      fail(k, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got " + std::to_string(v) + ")");
+      fail(k, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got " +
+                  std::to_string(v) + ")");
     return v;
   }
   std::string string(const char* k, std::initializer_list<const char*> choices) const {
@@ -195,10 +203,12 @@ Simulation parse_simulation(const Table& root) {
   s.duration = t.positive("duration");
   s.output_interval = t.has("output_interval") ? t.positive("output_interval") : s.duration / 100;
   if (t.has("integrator"))
-    s.integrator = t.string("integrator", {"position_verlet", "pefrl"}) == "pefrl" ? Integrator::pefrl
-                                                                                   : Integrator::position_verlet;
+    s.integrator = t.string("integrator", {"position_verlet", "pefrl"}) == "pefrl"
+                       ? Integrator::pefrl
+                       : Integrator::position_verlet;
   if (t.has("precision"))
-    s.precision = t.string("precision", {"double", "float"}) == "float" ? Precision::float32 : Precision::float64;
+    s.precision =
+        t.string("precision", {"double", "float"}) == "float" ? Precision::float32 : Precision::float64;
   s.gravity = t.vec3("gravity", {0, 0, 0});
   s.output_directors = t.boolean("output_directors", true);
   return s;
@@ -213,7 +223,8 @@ struct Placement {
 // A unit vector perpendicular to d (d unit).
 E3 perpendicular(const E3& d, const E3& hint) {
   E3 p = hint - hint.dot(d) * d;
-  if (p.norm() < 1e-6) p = (std::abs(d.x()) < 0.9 ? E3::UnitX() : E3::UnitY()) - d * (std::abs(d.x()) < 0.9 ? d.x() : d.y());
+  if (p.norm() < 1e-6)
+    p = (std::abs(d.x()) < 0.9 ? E3::UnitX() : E3::UnitY()) - d * (std::abs(d.x()) < 0.9 ? d.x() : d.y());
   return p.normalized();
 }
 
@@ -230,10 +241,12 @@ struct Rng {
   }
 };
 
-Placement parse_placement(const Table& g, int count, const Vec3& start, const Vec3& direction, const Vec3& normal) {
+Placement parse_placement(const Table& g, int count, const Vec3& start, const Vec3& direction,
+                          const Vec3& normal) {
   Placement p;
   if (!g.has("placement")) {
-    if (count > 1) g.missing("placement", "count > 1 needs a placement: kind = \"grid\", \"sphere\" or \"list\"");
+    if (count > 1)
+      g.missing("placement", "count > 1 needs a placement: kind = \"grid\", \"sphere\" or \"list\"");
     p.starts = {start};
     p.directions = {direction};
     p.normals = {normal};
@@ -243,10 +256,12 @@ Placement parse_placement(const Table& g, int count, const Vec3& start, const Ve
   if (!pn->is_table()) g.fail("placement", std::string("must be a table, got ") + type_name(*pn));
   const toml::table& pt = *pn->as_table();
   const toml::node* kn = pt.get("kind");
-  if (!kn) Table(g.ctx, pt, g.key("placement"), {"kind", "spacing", "columns", "axes", "center", "radius",
-                                                  "cap_angle", "axis", "seed", "starts"})
-              .missing("kind", "\"grid\", \"sphere\" or \"list\"");
-  if (!kn->is_string()) g.ctx.fail(*kn, g.key("placement.kind"), std::string("must be a string, got ") + type_name(*kn));
+  if (!kn)
+    Table(g.ctx, pt, g.key("placement"),
+          {"kind", "spacing", "columns", "axes", "center", "radius", "cap_angle", "axis", "seed", "starts"})
+        .missing("kind", "\"grid\", \"sphere\" or \"list\"");
+  if (!kn->is_string())
+    g.ctx.fail(*kn, g.key("placement.kind"), std::string("must be a string, got ") + type_name(*kn));
   const std::string kind = kn->as_string()->get();
   if (kind == "grid") {
     const Table t(g.ctx, pt, g.key("placement"), {"kind", "spacing", "columns", "axes"});
@@ -265,7 +280,8 @@ Placement parse_placement(const Table& g, int count, const Vec3& start, const Ve
     E3 u = perpendicular(d, to_e(normal)), v = d.cross(u);
     if (t.has("axes")) {
       const toml::array* aa = t.get("axes")->as_array();
-      if (!aa || aa->size() != 2) t.fail("axes", "must be an array of two vectors [[ux, uy, uz], [vx, vy, vz]]");
+      if (!aa || aa->size() != 2)
+        t.fail("axes", "must be an array of two vectors [[ux, uy, uz], [vx, vy, vz]]");
       u = to_e(t.vec3_of(*aa->get(0), t.key("axes.0")));
       v = to_e(t.vec3_of(*aa->get(1), t.key("axes.1")));
       if (!(u.norm() > 0) || !(v.norm() > 0) || u.normalized().cross(v.normalized()).norm() < 1e-6)
@@ -281,13 +297,17 @@ Placement parse_placement(const Table& g, int count, const Vec3& start, const Ve
   } else if (kind == "sphere") {
     const Table t(g.ctx, pt, g.key("placement"), {"kind", "center", "radius", "cap_angle", "axis", "seed"});
     for (const char* k : {"start", "direction", "normal"})
-      if (g.has(k)) g.fail(k, "not used with placement.kind = \"sphere\": roots lie on the sphere and rods grow along its outward normal");
+      if (g.has(k))
+        g.fail(k,
+               "not used with placement.kind = \"sphere\": roots lie on the sphere and rods grow along its "
+               "outward normal");
     const E3 c = to_e(t.vec3("center"));
     const double r = t.positive("radius");
     const double cap = t.number("cap_angle", 90);
     if (!(cap > 0 && cap <= 180)) t.fail("cap_angle", "must be in (0, 180] degrees (got " + num(cap) + ")");
     const E3 axis = to_e(t.nonzero_vec3("axis", {0, 0, 1})).normalized();
-    Rng rng{std::uint64_t(t.has("seed") ? t.integer("seed", 0, std::numeric_limits<std::int64_t>::max()) : 0)};
+    Rng rng{
+        std::uint64_t(t.has("seed") ? t.integer("seed", 0, std::numeric_limits<std::int64_t>::max()) : 0)};
     const E3 e1 = perpendicular(axis, E3::UnitX()), e2 = axis.cross(e1);
     const double cmin = std::cos(cap * std::numbers::pi / 180);
     for (int i = 0; i < count; ++i) {
@@ -325,7 +345,9 @@ Section parse_section(const Table& g, double* width) {
   const toml::table& st = *n->as_table();
   const toml::node* sh = st.get("shape");
   const std::string path = g.key("section");
-  if (!sh) throw SceneError(g.ctx.where(st) + path + ".shape: missing (\"circle\", \"ellipse\", \"rectangle\" or \"hollow_circle\")");
+  if (!sh)
+    throw SceneError(g.ctx.where(st) + path +
+                     ".shape: missing (\"circle\", \"ellipse\", \"rectangle\" or \"hollow_circle\")");
   if (!sh->is_string()) g.ctx.fail(*sh, path + ".shape", "must be a string");
   const std::string shape = sh->as_string()->get();
   if (shape == "circle") {
@@ -342,7 +364,9 @@ Section parse_section(const Table& g, double* width) {
     double v[2];
     for (int i = 0; i < 2; ++i) {
       v[i] = t.as_number(*arr->get(i), t.key("semi_axes") + "." + std::to_string(i));
-      if (!(v[i] > 0)) g.ctx.fail(*arr->get(i), t.key("semi_axes") + "." + std::to_string(i), "must be > 0 (got " + num(v[i]) + ")");
+      if (!(v[i] > 0))
+        g.ctx.fail(*arr->get(i), t.key("semi_axes") + "." + std::to_string(i),
+                   "must be > 0 (got " + num(v[i]) + ")");
     }
     *width = 2 * std::max(v[0], v[1]);
     return Section::ellipse(v[0], v[1]);
@@ -359,7 +383,8 @@ Section parse_section(const Table& g, double* width) {
     *width = 2 * ro;
     return Section::hollow_circle(ro, ri);
   }
-  g.ctx.fail(*sh, path + ".shape", "\"" + shape + "\" is not one of \"circle\", \"ellipse\", \"rectangle\", \"hollow_circle\"");
+  g.ctx.fail(*sh, path + ".shape",
+             "\"" + shape + "\" is not one of \"circle\", \"ellipse\", \"rectangle\", \"hollow_circle\"");
 }
 
 Material parse_material(const Table& g) {
@@ -386,19 +411,24 @@ Material parse_material(const Table& g) {
 
 Damping parse_damping(const Table& g) {
   if (!g.has("damping")) return Damping::none();
-  const Table t = g.sub("damping", {"tau_shear", "tau_bulk", "tau_extension", "shear_viscosity", "bulk_viscosity"});
+  const Table t =
+      g.sub("damping", {"tau_shear", "tau_bulk", "tau_extension", "shear_viscosity", "bulk_viscosity"});
   const bool ts = t.has("tau_shear"), tb = t.has("tau_bulk"), te = t.has("tau_extension");
   const bool eta = t.has("shear_viscosity"), zeta = t.has("bulk_viscosity");
-  const char* forms = "give tau_shear with tau_bulk or tau_extension (s), or shear_viscosity with bulk_viscosity (Pa s)";
+  const char* forms =
+      "give tau_shear with tau_bulk or tau_extension (s), or shear_viscosity with bulk_viscosity (Pa s)";
   if (eta || zeta) {
-    if (ts || tb || te) throw SceneError(g.ctx.where(t.t) + t.path + ": viscosities and retardation times given together; " + forms);
+    if (ts || tb || te)
+      throw SceneError(g.ctx.where(t.t) + t.path + ": viscosities and retardation times given together; " +
+                       forms);
     if (!eta) t.missing("shear_viscosity", forms);
     if (!zeta) t.missing("bulk_viscosity", forms);
     return Damping::viscosities(t.non_negative("shear_viscosity"), t.non_negative("bulk_viscosity"));
   }
   if (!ts) t.missing("tau_shear", forms);
   if (tb == te) {
-    if (tb) throw SceneError(g.ctx.where(t.t) + t.path + ": tau_bulk and tau_extension given together; " + forms);
+    if (tb)
+      throw SceneError(g.ctx.where(t.t) + t.path + ": tau_bulk and tau_extension given together; " + forms);
     t.missing("tau_extension", forms);
   }
   if (tb) return Damping::shear_bulk(t.non_negative("tau_shear"), t.non_negative("tau_bulk"));
@@ -416,8 +446,8 @@ RodSpec curved_rod(const Vec3& start, const Vec3& direction, const Vec3& normal,
   Eigen::Matrix3d q;
   for (int i = 0; i < 9; ++i) q(i / 3, i % 3) = straight.frames[0][i];
   const E3 w = -to_e(u0) * l;
-  const Eigen::Matrix3d step =
-      w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d step = w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                                            : Eigen::Matrix3d::Identity();
   std::vector<Vec3> nodes{start};
   std::vector<Mat3> frames;
   for (int e = 0; e < n; ++e) {
@@ -439,7 +469,8 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
   for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
   auto bad = [&](const std::string& msg) { throw SceneError(ctx.source + ": --vary " + o.key + ": " + msg); };
   if (parts.size() < 2) bad("expected a key path like rods.0.damping.tau_extension");
-  if (parts[0] == "simulation") bad("[simulation] keys cannot be varied (every variation shares one batch and one dt)");
+  if (parts[0] == "simulation")
+    bad("[simulation] keys cannot be varied (every variation shares one batch and one dt)");
   if (parts[0] != "rods") bad("only rods.<group>.<key> paths can be varied");
   toml::node* cur = &root;
   for (std::size_t i = 0; i < parts.size(); ++i) {
@@ -460,7 +491,8 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
       }
       if (last) {
         if (next->is_integer()) {
-          if (o.value != std::floor(o.value)) bad("'" + p + "' is an integer, value " + num(o.value) + " is not");
+          if (o.value != std::floor(o.value))
+            bad("'" + p + "' is an integer, value " + num(o.value) + " is not");
           t->insert_or_assign(p, std::int64_t(o.value));
         } else if (next->is_number()) {
           t->insert_or_assign(p, o.value);
@@ -480,7 +512,8 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
         toml::node* e = a->get(std::size_t(idx));
         if (!e->is_number()) bad("entry " + p + " is " + type_name(*e) + ", not a number");
         if (e->is_integer()) {
-          if (o.value != std::floor(o.value)) bad("entry " + p + " is an integer, value " + num(o.value) + " is not");
+          if (o.value != std::floor(o.value))
+            bad("entry " + p + " is an integer, value " + num(o.value) + " is not");
           a->replace(a->cbegin() + idx, std::int64_t(o.value));
         } else {
           a->replace(a->cbegin() + idx, o.value);
@@ -562,9 +595,9 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   for (std::size_t gi = 0; gi < groups->size(); ++gi) {
     const toml::table& gt = *groups->get(gi)->as_table();
     const Table g(ctx, gt, "rods." + std::to_string(gi),
-                  {"name", "count", "elements", "length", "start", "direction", "normal", "placement", "section",
-                   "material", "damping", "rest_curvature", "root", "tip_force", "initial_tip_force", "terms",
-                   "shear_stretch_scale"});
+                  {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
+                   "section", "material", "damping", "rest_curvature", "root", "tip_force",
+                   "initial_tip_force", "terms", "shear_stretch_scale"});
     Pending p;
     p.table = &gt;
     p.g.name = g.has("name") ? g.text("name") : "rods." + std::to_string(gi);
@@ -592,14 +625,16 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     }
     p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
     if (g.has("initial_tip_force")) {
-      if (!p.clamped) g.fail("initial_tip_force", "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
+      if (!p.clamped)
+        g.fail("initial_tip_force",
+               "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
       p.g.has_initial_tip_force = true;
       p.g.initial_tip_force = g.vec3("initial_tip_force");
     }
     p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
     if (g.has("terms")) {
       const Table t = g.sub("terms", {"shear", "stretch", "bend", "twist", "kelvin_voigt", "gravity"});
-      p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true), t.boolean("bend", true),
+      p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true),      t.boolean("bend", true),
                    t.boolean("twist", true), t.boolean("kelvin_voigt", true), t.boolean("gravity", true)};
       if (t.has("gravity")) p.gravity_node = t.get("gravity");
     }
@@ -622,7 +657,8 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   for (std::size_t i = 1; i < pending.size(); ++i)
     if (pending[i].g.terms.gravity != pending[0].g.terms.gravity) {
       const std::string msg = "differs from rods.0: gravity is one compile-time switch for the whole batch";
-      if (pending[i].gravity_node) ctx.fail(*pending[i].gravity_node, "rods." + std::to_string(i) + ".terms.gravity", msg);
+      if (pending[i].gravity_node)
+        ctx.fail(*pending[i].gravity_node, "rods." + std::to_string(i) + ".terms.gravity", msg);
       throw SceneError(source + ":" + std::to_string(pending[i].g.line) + ": rods." + std::to_string(i) +
                        ".terms.gravity: " + msg);
     }
@@ -633,9 +669,10 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     for (int i = 0; i < p.g.count; ++i) {
       RodSpec r;
       try {
-        r = p.curved ? curved_rod(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length, p.elements, p.u0)
-                     : RodSpec::straight(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length,
-                                         p.elements);
+        r = p.curved ? curved_rod(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length,
+                                  p.elements, p.u0)
+                     : RodSpec::straight(p.place.starts[i], p.place.directions[i], p.place.normals[i],
+                                         p.length, p.elements);
       } catch (const InputError& e) {
         throw SceneError(source + ":" + std::to_string(p.g.line) + ": rods." + std::to_string(gi) + " rod " +
                          std::to_string(i) + ": " + e.what());
@@ -675,8 +712,9 @@ void check_batch_size(const Scene& s) {
   const std::uint64_t need = estimated_batch_bytes(s);
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
   if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
-    throw SceneError(s.source + ": the batch needs about " + num(double(need) / 1e9) + " GB, more than this machine's " +
-                     num(double(pages) * double(page) / 1e9) + " GB of memory");
+    throw SceneError(s.source + ": the batch needs about " + num(double(need) / 1e9) +
+                     " GB, more than this machine's " + num(double(pages) * double(page) / 1e9) +
+                     " GB of memory");
 }
 
 }  // namespace manyrods::scene

@@ -33,14 +33,14 @@ struct SceneError : std::runtime_error {
 enum class Precision { float64, float32 };
 
 struct Simulation {
-  bool dt_auto = true;    // dt = "auto": stable_dt(batch).elastic × dt_safety
-  double dt = 0;          // s, when !dt_auto
+  bool dt_auto = true;  // dt = "auto": stable_dt(batch).elastic × dt_safety
+  double dt = 0;        // s, when !dt_auto
   double dt_safety = 0.9;
   double duration = 0;         // s of simulated time
   double output_interval = 0;  // s of simulated time between frames (0: every step... see docs)
   Integrator integrator = Integrator::position_verlet;
   Precision precision = Precision::float64;
-  Vec3 gravity{0, 0, 0};       // m/s²
+  Vec3 gravity{0, 0, 0};         // m/s²
   bool output_directors = true;  // write /element_directors frames
 };
 
@@ -59,10 +59,10 @@ struct RodGroup {
   int first_rod = 0;  // index of its first rod in Scene::rods
   int line = 0;       // source line of its [[rods]] table
   TermSwitches terms;
-  Vec3 tip_force{0, 0, 0};           // N, lab frame, dead load on the last node
+  Vec3 tip_force{0, 0, 0};  // N, lab frame, dead load on the last node
   bool has_initial_tip_force = false;
-  Vec3 initial_tip_force{0, 0, 0};   // start in static equilibrium under it, released at t = 0
-  double width = 0;                  // largest section dimension (m), for USD widths and strains
+  Vec3 initial_tip_force{0, 0, 0};  // start in static equilibrium under it, released at t = 0
+  double width = 0;                 // largest section dimension (m), for USD widths and strains
 };
 
 struct Override {
@@ -75,8 +75,8 @@ struct Scene {
   std::string text;    // the TOML text as read
   Simulation sim;
   std::vector<RodGroup> groups;
-  std::vector<RodSpec> rods;    // expanded
-  std::vector<int> rod_group;   // [rods] group index
+  std::vector<RodSpec> rods;   // expanded
+  std::vector<int> rod_group;  // [rods] group index
 };
 
 // Parses and validates. `overrides` set numeric values by key path before

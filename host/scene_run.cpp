@@ -120,9 +120,11 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
     const RodBatch<double>& one = it->second;
     const int n = b.elements(r);
     for (int j = 0; j <= n; ++j)
-      for (int a = 0; a < 3; ++a) b.state.node_x[a][b.node_index(r, j)] = T(one.state.node_x[a][one.node_index(0, j)]);
+      for (int a = 0; a < 3; ++a)
+        b.state.node_x[a][b.node_index(r, j)] = T(one.state.node_x[a][one.node_index(0, j)]);
     for (int e = 0; e < n; ++e)
-      for (int i = 0; i < 9; ++i) b.state.elem_Q[i][b.elem_index(r, e)] = T(one.state.elem_Q[i][one.elem_index(0, e)]);
+      for (int i = 0; i < 9; ++i)
+        b.state.elem_Q[i][b.elem_index(r, e)] = T(one.state.elem_Q[i][one.elem_index(0, e)]);
     // the tip ghost element holds a copy of the last frame (batch.h)
     for (int i = 0; i < 9; ++i)
       b.state.elem_Q[i][b.elem_index(r, n)] = T(one.state.elem_Q[i][one.elem_index(0, n)]);
@@ -136,7 +138,8 @@ double scene_dt(const Scene& s, const RodBatch<T>& b) {
   const StepChoice c = step_choice(s);
   const StableDt sd = with_terms(c, [&]<Terms kT>() { return stable_dt<kT>(b); });
   if (!std::isfinite(sd.elastic) || !(sd.elastic > 0))
-    throw SceneError(s.source + ": dt = \"auto\": stable_dt gives no finite step (no stiffness?); give dt in seconds");
+    throw SceneError(s.source +
+                     ": dt = \"auto\": stable_dt gives no finite step (no stiffness?); give dt in seconds");
   return sd.elastic * s.sim.dt_safety;
 }
 
@@ -196,13 +199,13 @@ void gather_directors(const RodBatch<T>& b, std::vector<T>& out) {
     }
 }
 
-#define MANYRODS_SCENE_INSTANTIATE(T)                                                                    \
-  template RodBatch<T> build_scene_batch<T>(const Scene&, bool);                                         \
-  template double scene_dt<T>(const Scene&, const RodBatch<T>&);                                         \
-  template void advance_scene<T>(RodBatch<T>&, const StepChoice&, T, std::int64_t, const Exec&);          \
-  template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);                       \
-  template double max_strain<T>(const RodBatch<T>&, int, double);                                        \
-  template void gather_positions<T>(const RodBatch<T>&, std::vector<T>&);                                \
+#define MANYRODS_SCENE_INSTANTIATE(T)                                                            \
+  template RodBatch<T> build_scene_batch<T>(const Scene&, bool);                                 \
+  template double scene_dt<T>(const Scene&, const RodBatch<T>&);                                 \
+  template void advance_scene<T>(RodBatch<T>&, const StepChoice&, T, std::int64_t, const Exec&); \
+  template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);               \
+  template double max_strain<T>(const RodBatch<T>&, int, double);                                \
+  template void gather_positions<T>(const RodBatch<T>&, std::vector<T>&);                        \
   template void gather_directors<T>(const RodBatch<T>&, std::vector<T>&);
 MANYRODS_SCENE_INSTANTIATE(float)
 MANYRODS_SCENE_INSTANTIATE(double)

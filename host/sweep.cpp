@@ -76,9 +76,11 @@ Vary parse_vary(const std::string& arg) {
     v.hi = parse_number(p[1], arg);
     if (p.size() == 3) {
       const double n = parse_number(p[2], arg);
-      if (n != std::floor(n) || n < 1 || n > 1e7) throw SceneError("--vary " + arg + ": n must be a whole number >= 1");
+      if (n != std::floor(n) || n < 1 || n > 1e7)
+        throw SceneError("--vary " + arg + ": n must be a whole number >= 1");
       v.count = int(n);
-      if (v.count == 1 && v.lo != v.hi) throw SceneError("--vary " + arg + ": one value over a range; give n >= 2 or a single value");
+      if (v.count == 1 && v.lo != v.hi)
+        throw SceneError("--vary " + arg + ": one value over a range; give n >= 2 or a single value");
     }
   } else {
     for (const std::string& s : split(spec, ',')) v.values.push_back(parse_number(s, arg));
@@ -86,7 +88,8 @@ Vary parse_vary(const std::string& arg) {
   return v;
 }
 
-std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int samples, std::uint64_t seed) {
+std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int samples,
+                                              std::uint64_t seed) {
   std::vector<std::vector<double>> pts;
   if (vary.empty()) throw SceneError("sweep: give at least one --vary");
   if (samples > 0) {
@@ -95,7 +98,8 @@ std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int
       std::vector<double> row;
       for (const Vary& v : vary) {
         if (!v.values.empty()) {
-          row.push_back(v.values[std::min(v.values.size() - 1, std::size_t(rng.next() * double(v.values.size())))]);
+          row.push_back(
+              v.values[std::min(v.values.size() - 1, std::size_t(rng.next() * double(v.values.size())))]);
         } else {
           row.push_back(v.lo + (v.hi - v.lo) * rng.next());
         }
@@ -135,8 +139,8 @@ std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int
   return pts;
 }
 
-Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary, int samples,
-                 std::uint64_t seed) {
+Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
+                 int samples, std::uint64_t seed) {
   Sweep sw;
   for (const Vary& v : vary) sw.names.push_back(v.key);
   sw.points = sweep_points(vary, samples, seed);
@@ -216,16 +220,21 @@ std::vector<h5::Column> sweep_parameters(const Sweep& sw) {
 }
 
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec) {
-  std::vector<h5::Column> c = {{"tip_deflection_initial_m", {}}, {"tip_deflection_max_m", {}},
-                               {"tip_deflection_final_m", {}},   {"period_s", {}},
-                               {"damping_ratio", {}},            {"cycles", {}},
-                               {"energy_final_J", {}},           {"dissipated_J", {}},
+  std::vector<h5::Column> c = {{"tip_deflection_initial_m", {}},
+                               {"tip_deflection_max_m", {}},
+                               {"tip_deflection_final_m", {}},
+                               {"period_s", {}},
+                               {"damping_ratio", {}},
+                               {"cycles", {}},
+                               {"energy_final_J", {}},
+                               {"dissipated_J", {}},
                                {"max_strain", {}}};
   for (std::size_t i = 0; i < rec.size(); ++i) {
     const ProbeRecord& r = rec[i];
     const Vec3 rest = sw.scene.rods[sw.probes[i].tip_rod].nodes.back();
     auto dist = [](const Vec3& a, const Vec3& b) {
-      return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+      return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                       (a[2] - b[2]) * (a[2] - b[2]));
     };
     double dmax = 0;
     for (const Vec3& x : r.tip) dmax = std::max(dmax, dist(x, rest));
@@ -241,7 +250,8 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
     Oscillation o{kNaN, kNaN, 0};
     if (nd > 0) {
       std::vector<double> u;
-      for (const Vec3& x : r.tip) u.push_back(((x[0] - end[0]) * dir[0] + (x[1] - end[1]) * dir[1] + (x[2] - end[2]) * dir[2]) / nd);
+      for (const Vec3& x : r.tip)
+        u.push_back(((x[0] - end[0]) * dir[0] + (x[1] - end[1]) * dir[1] + (x[2] - end[2]) * dir[2]) / nd);
       o = analyse_oscillation(r.time, u);
     }
     c[0].values.push_back(dist(r.tip.front(), rest));
@@ -257,7 +267,8 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
   return c;
 }
 
-void write_csv(const std::string& path, const std::vector<h5::Column>& parameters, const std::vector<h5::Column>& summary) {
+void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
+               const std::vector<h5::Column>& summary) {
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp);

@@ -45,8 +45,8 @@ struct Sweep {
 
 // Parses the scene once per variation with the overrides applied (each is
 // validated like a scene file) and concatenates the rods.
-Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary, int samples,
-                 std::uint64_t seed);
+Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
+                 int samples, std::uint64_t seed);
 
 // Period and damping ratio of a decaying oscillation u(t) (samples in time
 // order): maxima and minima refined by a parabola through three samples;

@@ -165,7 +165,8 @@ TEST(Cli, ExampleScenesRun) {
     std::vector<double> p;
     rd.read_positions(rd.frames() - 1, p);
     for (double x : p) ASSERT_TRUE(std::isfinite(x));
-    EXPECT_EQ(cli("export " + out + " --usd " + path(std::string(e.file) + ".usda") + " --every 5").status, 0);
+    EXPECT_EQ(cli("export " + out + " --usd " + path(std::string(e.file) + ".usda") + " --every 5").status,
+              0);
   }
 }
 
@@ -178,7 +179,8 @@ TEST(Cli, RestartIsBitIdenticalToAnUninterruptedRun) {
                            Variant{"float_pefrl", "precision = \"float\"\nintegrator = \"pefrl\"\n"}}) {
     SCOPED_TRACE(v.name);
     const std::string scene = write_scene(std::string(v.name) + ".toml", cantilever(8, 0.6, 0.05, v.sim));
-    const std::string full = path(std::string(v.name) + "_full.h5"), part = path(std::string(v.name) + "_part.h5"),
+    const std::string full = path(std::string(v.name) + "_full.h5"),
+                      part = path(std::string(v.name) + "_part.h5"),
                       rest = path(std::string(v.name) + "_rest.h5");
     ASSERT_EQ(cli("run " + scene + " -o " + full).status, 0);
     const Result p = cli("run " + scene + " -o " + part + " --until 0.25");
@@ -196,13 +198,15 @@ TEST(Cli, RestartIsBitIdenticalToAnUninterruptedRun) {
 TEST(Cli, CtrlCLeavesAValidFileWithACheckpoint) {
   // long enough that it is still running when interrupted
   const std::string scene = write_scene(
-      "long.toml", cantilever(8, 500.0, 0.5, "", "count = 50\nplacement = { kind = \"grid\", spacing = [0.02, 0.02] }\n"));
+      "long.toml",
+      cantilever(8, 500.0, 0.5, "", "count = 50\nplacement = { kind = \"grid\", spacing = [0.02, 0.02] }\n"));
   const std::string out = path("sigint.h5"), err = path("sigint.err");
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     freopen(err.c_str(), "w", stderr);
-    execl(kCli.c_str(), kCli.c_str(), "run", scene.c_str(), "-o", out.c_str(), "--threads", "1", (char*)nullptr);
+    execl(kCli.c_str(), kCli.c_str(), "run", scene.c_str(), "-o", out.c_str(), "--threads", "1",
+          (char*)nullptr);
     _exit(127);
   }
   const auto t0 = std::chrono::steady_clock::now();
@@ -228,9 +232,11 @@ TEST(Cli, CtrlCLeavesAValidFileWithACheckpoint) {
 TEST(Cli, SweepPutsEveryVariationInOneBatchAndSummarisesIt) {
   // 4 variations × 2 rods each (a list placement): one batch of 8 rods
   const std::string scene = write_scene(
-      "sweep.toml", cantilever(10, 8.0, 0.05, "", "count = 2\nplacement = { kind = \"list\", starts = [[0,0,0],[0,0.1,0]] }\n"));
+      "sweep.toml", cantilever(10, 8.0, 0.05, "",
+                               "count = 2\nplacement = { kind = \"list\", starts = [[0,0,0],[0,0.1,0]] }\n"));
   const std::string out = path("sweep.h5"), csv = path("sweep_summary.csv");
-  const Result r = cli("sweep " + scene + " --vary rods.0.damping.tau_extension=0.02:0.08:4 -o " + out + " --csv " + csv);
+  const Result r =
+      cli("sweep " + scene + " --vary rods.0.damping.tau_extension=0.02:0.08:4 -o " + out + " --csv " + csv);
   ASSERT_EQ(r.status, 0) << r.err;
   expect_contains(r.err, "4 variations, 8 rods in one batch");
   const h5::Reader rd(out);
@@ -287,8 +293,10 @@ TEST(Cli, SweepRandomSamplingIsReproducible) {
   const std::string scene = write_scene("sample.toml", cantilever(4, 0.05, 0.01));
   auto values = [&](int seed) {
     const std::string out = path("sample_" + std::to_string(seed) + ".h5");
-    const Result r = cli("sweep " + scene + " --vary rods.0.material.youngs_modulus=1e6:2e6 --vary "
-                         "rods.0.length=0.2,0.3 --samples 5 --seed " + std::to_string(seed) + " -o " + out);
+    const Result r = cli("sweep " + scene +
+                         " --vary rods.0.material.youngs_modulus=1e6:2e6 --vary "
+                         "rods.0.length=0.2,0.3 --samples 5 --seed " +
+                         std::to_string(seed) + " -o " + out);
     EXPECT_EQ(r.status, 0) << r.err;
     const h5::Reader rd(out);
     EXPECT_EQ(rd.output().node_offsets.size(), 6u);  // 5 variations of one rod
@@ -307,8 +315,9 @@ TEST(Cli, SweepRandomSamplingIsReproducible) {
 
 TEST(Cli, ExportWritesUsdBasisCurvesWithTimeSamples) {
   const std::string scene = write_scene(
-      "usd.toml", cantilever(5, 0.2, 0.02, "",
-                             "count = 3\nplacement = { kind = \"grid\", spacing = [0.05, 0.05], columns = 3 }\n"));
+      "usd.toml",
+      cantilever(5, 0.2, 0.02, "",
+                 "count = 3\nplacement = { kind = \"grid\", spacing = [0.05, 0.05], columns = 3 }\n"));
   ASSERT_EQ(cli("run " + scene + " -o " + path("usd.h5")).status, 0);
   const Result r = cli("export " + path("usd.h5") + " --usd " + path("out.usda"));
   ASSERT_EQ(r.status, 0) << r.err;

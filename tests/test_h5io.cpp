@@ -4,6 +4,7 @@
 // foreign, truncated and incomplete files give clear errors.
 #include <gtest/gtest.h>
 #include <hdf5.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -11,9 +12,8 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-#include <typeinfo>
-#include <unistd.h>
 #include <string>
+#include <typeinfo>
 #include <vector>
 
 #include "host/h5io.h"
@@ -101,7 +101,8 @@ void expect_h5_error(F&& f, const std::vector<std::string>& needles) {
     ADD_FAILURE() << "no H5Error";
   } catch (const h5::H5Error& e) {
     const std::string msg = e.what();
-    for (const std::string& n : needles) EXPECT_NE(msg.find(n), std::string::npos) << "'" << n << "' not in: " << msg;
+    for (const std::string& n : needles)
+      EXPECT_NE(msg.find(n), std::string::npos) << "'" << n << "' not in: " << msg;
   }
 }
 
@@ -154,9 +155,7 @@ TEST(H5io, RoundTripFloat) { round_trip<float>(); }
 TEST(H5io, WritesATemporaryFileAndRenamesItAtTheEnd) {
   const fs::path d = temp_dir();
   const std::string path = (d / "keep.h5").string();
-  {
-    std::ofstream(path) << "previous result";
-  }
+  { std::ofstream(path) << "previous result"; }
   {
     h5::Writer w(path, layout(false), info());
     const std::vector<double> p(21, 1.0), q(45, 0.0);
@@ -230,7 +229,8 @@ TEST(H5io, BadFilesGiveClearErrors) {
 }
 
 TEST(H5io, H5pyReadsTheDocumentedLayout) {
-  if (!python_h5py()) GTEST_SKIP() << "/usr/bin/python3 with h5py and numpy not installed (apt-get install python3-h5py)";
+  if (!python_h5py())
+    GTEST_SKIP() << "/usr/bin/python3 with h5py and numpy not installed (apt-get install python3-h5py)";
   const std::string path = (temp_dir() / "py.h5").string();
   const auto frames = write_file<float>(path);
   const std::string script = (temp_dir() / "check.py").string();

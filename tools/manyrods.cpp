@@ -118,7 +118,8 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
         for (int r : members)
           for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j) {
             const double* p = &pos[k][3 * j];
-            out << (f1 ? "" : ", ") << '(' << float(p[0]) << ", " << float(p[1]) << ", " << float(p[2]) << ')';
+            out << (f1 ? "" : ", ") << '(' << float(p[0]) << ", " << float(p[1]) << ", " << float(p[2])
+                << ')';
             f1 = false;
           }
         out << "],\n";
@@ -150,7 +151,8 @@ int plot(const std::string& in, std::string dir) {
   // tip trajectories of up to 6 rods spread over the batch
   std::vector<int> shown;
   const int nshow = std::min(rods, 6);
-  for (int i = 0; i < nshow; ++i) shown.push_back(nshow == 1 ? 0 : int(std::llround(double(i) * (rods - 1) / (nshow - 1))));
+  for (int i = 0; i < nshow; ++i)
+    shown.push_back(nshow == 1 ? 0 : int(std::llround(double(i) * (rods - 1) / (nshow - 1))));
   const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
   {
     std::ofstream t(tips);
@@ -181,14 +183,18 @@ int plot(const std::string& in, std::string dir) {
   for (int a = 0; a < 3; ++a) {
     gp << "set xlabel 'time (s)'\nset ylabel 'tip " << axis[a] << " (m)'\nplot ";
     for (std::size_t i = 0; i < shown.size(); ++i)
-      gp << (i ? ", " : "") << quote(tips) << " using 1:" << 2 + 3 * i + a << " with lines title 'rod " << shown[i] << "'";
+      gp << (i ? ", " : "") << quote(tips) << " using 1:" << 2 + 3 * i + a << " with lines title 'rod "
+         << shown[i] << "'";
     gp << "\n";
   }
   gp << "unset multiplot\n";
-  gp << "set output " << quote(dir + "/energy.png") << "\nset title 'energy budget (dissipated = integral of 2 D_v dt)'\n"
+  gp << "set output " << quote(dir + "/energy.png")
+     << "\nset title 'energy budget (dissipated = integral of 2 D_v dt)'\n"
      << "set xlabel 'time (s)'\nset ylabel 'energy (J)'\nplot " << quote(energy)
-     << " using 1:2 with lines title 'kinetic', '' using 1:3 with lines title 'elastic', '' using 1:4 with lines title "
-        "'potential', '' using 1:5 with lines lw 2 title 'mechanical', '' using 1:6 with lines title 'dissipated (KV)', "
+     << " using 1:2 with lines title 'kinetic', '' using 1:3 with lines title 'elastic', '' using 1:4 with "
+        "lines title "
+        "'potential', '' using 1:5 with lines lw 2 title 'mechanical', '' using 1:6 with lines title "
+        "'dissipated (KV)', "
         "'' using 1:7 with lines dt 2 lw 2 title 'mechanical + dissipated'\n";
   std::vector<std::string> made = {dir + "/tips.png", dir + "/energy.png"};
   if (o.has_sweep && !o.sweep_parameters.empty()) {
@@ -198,15 +204,17 @@ int plot(const std::string& in, std::string dir) {
     const std::size_t n = o.sweep_parameters[0].values.size();
     for (std::size_t i = 0; i < n; ++i) {
       s << o.sweep_parameters[0].values[i];
-      for (const h5::Column& c : o.sweep_summary) s << ' ' << (std::isfinite(c.values[i]) ? c.values[i] : NAN);
+      for (const h5::Column& c : o.sweep_summary)
+        s << ' ' << (std::isfinite(c.values[i]) ? c.values[i] : NAN);
       s << '\n';
     }
     s.close();
     for (std::size_t c = 0; c < o.sweep_summary.size(); ++c) {
       const std::string png = dir + "/sweep_" + o.sweep_summary[c].name + ".png";
-      gp << "set output " << quote(png) << "\nset title 'sweep'\nset xlabel " << quote(o.sweep_parameters[0].name)
-         << "\nset ylabel " << quote(o.sweep_summary[c].name) << "\nplot " << quote(sweep) << " using 1:" << c + 2
-         << " with linespoints title " << quote(o.sweep_summary[c].name) << "\n";
+      gp << "set output " << quote(png) << "\nset title 'sweep'\nset xlabel "
+         << quote(o.sweep_parameters[0].name) << "\nset ylabel " << quote(o.sweep_summary[c].name)
+         << "\nplot " << quote(sweep) << " using 1:" << c + 2 << " with linespoints title "
+         << quote(o.sweep_summary[c].name) << "\n";
       made.push_back(png);
     }
   }
@@ -219,8 +227,9 @@ int plot(const std::string& in, std::string dir) {
   const std::string log = dir + "/gnuplot.log";
   const int rc = std::system((cmd + " 2> " + quote(log)).c_str());
   if (rc != 0) {
-    std::fprintf(stderr, "manyrods plot: gnuplot failed (exit %d); is gnuplot installed? script: %s, messages: %s\n", rc,
-                 script.c_str(), log.c_str());
+    std::fprintf(stderr,
+                 "manyrods plot: gnuplot failed (exit %d); is gnuplot installed? script: %s, messages: %s\n",
+                 rc, script.c_str(), log.c_str());
     return 1;
   }
   for (const std::string& m : made) std::fprintf(stderr, "manyrods: wrote %s\n", m.c_str());
@@ -244,25 +253,32 @@ int main(int argc, char** argv) {
   run->add_option("scene", scene_path, "scene file (TOML)");
   run->add_option("-o,--output", output, "output HDF5 file")->required();
   run->add_option("--restart", restart, "continue the run whose output (checkpoint) is this file");
-  run->add_option("--threads", threads, "OpenMP threads (results do not depend on it)")->check(CLI::PositiveNumber);
-  run->add_option("--until", until, "stop at this simulated time (s); the file keeps a checkpoint to --restart from");
+  run->add_option("--threads", threads, "OpenMP threads (results do not depend on it)")
+      ->check(CLI::PositiveNumber);
+  run->add_option("--until", until,
+                  "stop at this simulated time (s); the file keeps a checkpoint to --restart from");
   run->add_option("--duration", duration, "override [simulation] duration (s)")->check(CLI::PositiveNumber);
-  run->add_flag("--no-progress", no_progress, "no progress line on stderr (default: shown when stderr is a terminal)");
+  run->add_flag("--no-progress", no_progress,
+                "no progress line on stderr (default: shown when stderr is a terminal)");
   run->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
 
   CLI::App* sweep = app.add_subcommand("sweep", "run every variation of a scene as rods of one batch");
   sweep->add_option("scene", scene_path, "scene file (TOML)")->required();
-  sweep->add_option("--vary", vary, "KEY=lo:hi:n | KEY=lo:hi | KEY=v1,v2,.. (e.g. rods.0.damping.tau_extension=0.01:0.1:64)")
+  sweep
+      ->add_option("--vary", vary,
+                   "KEY=lo:hi:n | KEY=lo:hi | KEY=v1,v2,.. (e.g. rods.0.damping.tau_extension=0.01:0.1:64)")
       ->required()
       ->allow_extra_args(false)  // one KEY=SPEC per --vary (repeat it), so a scene after it stays positional
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  sweep->add_option("--samples", samples, "random sampling: number of variations")->check(CLI::NonNegativeNumber);
+  sweep->add_option("--samples", samples, "random sampling: number of variations")
+      ->check(CLI::NonNegativeNumber);
   sweep->add_option("--seed", seed, "random sampling: seed");
   sweep->add_option("-o,--output", output, "output HDF5 file")->required();
   sweep->add_option("--csv", csv, "summary CSV (default: the output with .csv)");
   sweep->add_option("--threads", threads, "OpenMP threads")->check(CLI::PositiveNumber);
   sweep->add_option("--duration", duration, "override [simulation] duration (s)")->check(CLI::PositiveNumber);
-  sweep->add_flag("--no-progress", no_progress, "no progress line on stderr (default: shown when stderr is a terminal)");
+  sweep->add_flag("--no-progress", no_progress,
+                  "no progress line on stderr (default: shown when stderr is a terminal)");
   sweep->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
 
   CLI::App* exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
@@ -300,7 +316,9 @@ int main(int argc, char** argv) {
       if (!restart.empty()) {
         const h5::Checkpoint c = h5::read_checkpoint(restart);
         if (c.from_sweep) {
-          std::fprintf(stderr, "manyrods: error: %s: restarting a sweep is not supported (run the sweep again with a longer --duration)\n",
+          std::fprintf(stderr,
+                       "manyrods: error: %s: restarting a sweep is not supported (run the sweep again with a "
+                       "longer --duration)\n",
                        restart.c_str());
           return 2;
         }
@@ -331,7 +349,8 @@ int main(int argc, char** argv) {
         std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
         w.write_sweep(params, summary, first);
       };
-      std::fprintf(stderr, "manyrods sweep: %zu variations, %zu rods in one batch\n", sw.points.size(), sw.scene.rods.size());
+      std::fprintf(stderr, "manyrods sweep: %zu variations, %zu rods in one batch\n", sw.points.size(),
+                   sw.scene.rods.size());
       std::signal(SIGINT, on_sigint);
       const RunResult r = run_scene(sw.scene, opt);
       write_csv(csv, params, summary);
@@ -348,8 +367,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "manyrods: error: %s\n", e.what());
     return 2;
   } catch (const NonFiniteError& e) {
-    std::fprintf(stderr, "manyrods: the simulation failed: %s\n(no output written; a smaller dt or dt = \"auto\" may help)\n",
-                 e.what());
+    std::fprintf(
+        stderr,
+        "manyrods: the simulation failed: %s\n(no output written; a smaller dt or dt = \"auto\" may help)\n",
+        e.what());
     return 1;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "manyrods: error: out of memory\n");
