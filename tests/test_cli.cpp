@@ -195,6 +195,19 @@ TEST(Cli, RestartIsBitIdenticalToAnUninterruptedRun) {
   }
 }
 
+TEST(Cli, ThreadCountDoesNotChangeTheResult) {
+  // 450 rods of 10 slots: three L2 segments (kSegmentSlots = 2048), stepped by
+  // different threads with --threads 2
+  std::string text = cantilever(8, 0.05, 0.01, "gravity = [0.0, -9.81, 0.0]\n",
+                                "count = 450\nplacement = { kind = \"grid\", spacing = [0.02, 0.02] }\n"
+                                "tip_force = [0.001, 0.0, 0.0]\n");
+  text.erase(text.find("initial_tip_force"), text.find("section") - text.find("initial_tip_force"));
+  const std::string scene = write_scene("threads.toml", text);
+  ASSERT_EQ(cli("run " + scene + " -o " + path("t1.h5") + " --threads 1").status, 0);
+  ASSERT_EQ(cli("run " + scene + " -o " + path("t2.h5") + " --threads 2").status, 0);
+  expect_same_run(path("t1.h5"), path("t2.h5"));
+}
+
 TEST(Cli, CtrlCLeavesAValidFileWithACheckpoint) {
   // long enough that it is still running when interrupted
   const std::string scene = write_scene(
