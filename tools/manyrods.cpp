@@ -239,6 +239,21 @@ int plot(const std::string& in, std::string dir) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // (CLI11's PositiveNumber prints the whole range up to DBL_MAX)
+  auto number_check = [](bool strict) {
+    return CLI::Validator(
+        [strict](std::string& s) {
+          try {
+            std::size_t used = 0;
+            const double v = std::stod(s, &used);
+            if (used == s.size() && std::isfinite(v) && (strict ? v > 0 : v >= 0)) return std::string();
+          } catch (const std::exception&) {
+          }
+          return std::string(strict ? "must be a number > 0" : "must be a number >= 0") + ", got '" + s + "'";
+        },
+        strict ? "NUMBER>0" : "NUMBER>=0");
+  };
+  const CLI::Validator positive = number_check(true), non_negative = number_check(false);
   CLI::App app{"manyrods: many Cosserat rods with Kelvin-Voigt damping (scenes: docs/scenes.md)"};
   app.require_subcommand(1);
 
@@ -253,11 +268,11 @@ int main(int argc, char** argv) {
   run->add_option("scene", scene_path, "scene file (TOML)");
   run->add_option("-o,--output", output, "output HDF5 file")->required();
   run->add_option("--restart", restart, "continue the run whose output (checkpoint) is this file");
-  run->add_option("--threads", threads, "OpenMP threads (results do not depend on it)")
-      ->check(CLI::PositiveNumber);
+  run->add_option("--threads", threads, "OpenMP threads (results do not depend on it)")->check(positive);
   run->add_option("--until", until,
-                  "stop at this simulated time (s); the file keeps a checkpoint to --restart from");
-  run->add_option("--duration", duration, "override [simulation] duration (s)")->check(CLI::PositiveNumber);
+                  "stop at this simulated time (s); the file keeps a checkpoint to --restart from")
+      ->check(non_negative);
+  run->add_option("--duration", duration, "override [simulation] duration (s)")->check(positive);
   run->add_flag("--no-progress", no_progress,
                 "no progress line on stderr (default: shown when stderr is a terminal)");
   run->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
@@ -270,13 +285,12 @@ int main(int argc, char** argv) {
       ->required()
       ->allow_extra_args(false)  // one KEY=SPEC per --vary (repeat it), so a scene after it stays positional
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  sweep->add_option("--samples", samples, "random sampling: number of variations")
-      ->check(CLI::NonNegativeNumber);
+  sweep->add_option("--samples", samples, "random sampling: number of variations")->check(non_negative);
   sweep->add_option("--seed", seed, "random sampling: seed");
   sweep->add_option("-o,--output", output, "output HDF5 file")->required();
   sweep->add_option("--csv", csv, "summary CSV (default: the output with .csv)");
-  sweep->add_option("--threads", threads, "OpenMP threads")->check(CLI::PositiveNumber);
-  sweep->add_option("--duration", duration, "override [simulation] duration (s)")->check(CLI::PositiveNumber);
+  sweep->add_option("--threads", threads, "OpenMP threads")->check(positive);
+  sweep->add_option("--duration", duration, "override [simulation] duration (s)")->check(positive);
   sweep->add_flag("--no-progress", no_progress,
                   "no progress line on stderr (default: shown when stderr is a terminal)");
   sweep->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
@@ -284,7 +298,7 @@ int main(int argc, char** argv) {
   CLI::App* exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
   exp->add_option("input", input, "manyrods HDF5 output")->required();
   exp->add_option("--usd", usd, "USD ASCII file to write (.usda)")->required();
-  exp->add_option("--every", every, "export every k-th frame")->check(CLI::PositiveNumber);
+  exp->add_option("--every", every, "export every k-th frame")->check(positive);
 
   CLI::App* plt = app.add_subcommand("plot", "PNG plots of an output file with gnuplot");
   plt->add_option("input", input, "manyrods HDF5 output")->required();
