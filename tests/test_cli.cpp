@@ -1,9 +1,10 @@
 // tests/test_cli.cpp — the command-line tool build/bin/manyrods as a user
 // runs it: run (frames, energy budget, summary line), restart bit-identical
-// to an uninterrupted run (double/Verlet and float/PEFRL), Ctrl-C leaves a
-// valid file with a checkpoint, sweep (one batch, summary in HDF5 and CSV,
-// damping ratio against the linear theory), USD export structure, plots,
-// and bad input (exit status and message).
+// to an uninterrupted run (double/Verlet and float/PEFRL), the same result
+// for any thread count, Ctrl-C leaves a valid file whose checkpoint continues
+// the run exactly, sweep (one batch, summary in HDF5 and CSV, damping ratio
+// against the linear theory), the example scenes, USD export structure,
+// plots, and bad input (exit status and message).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -240,6 +241,26 @@ TEST(Cli, CtrlCLeavesAValidFileWithACheckpoint) {
   EXPECT_GT(c.steps, 0);
   EXPECT_EQ(c.steps % 64, 0);  // stopped at a sample point
   EXPECT_GE(c.time, rd.output().time.back());
+
+  // The Ctrl-C checkpoint continues the run exactly: restarted from it and
+  // stopped a little later, the state equals a fresh run stopped there.
+  std::ostringstream until;
+  until.precision(17);
+  until << c.time + 0.05;
+  const Result a = cli("run --restart " + out + " -o " + path("sigint_more.h5") + " --until " + until.str());
+  ASSERT_EQ(a.status, 0) << a.err;
+  const Result b = cli("run " + scene + " -o " + path("sigint_fresh.h5") + " --until " + until.str());
+  ASSERT_EQ(b.status, 0) << b.err;
+  const h5::Checkpoint ca = h5::read_checkpoint(path("sigint_more.h5"));
+  const h5::Checkpoint cb = h5::read_checkpoint(path("sigint_fresh.h5"));
+  EXPECT_GT(ca.steps, c.steps);
+  EXPECT_EQ(ca.steps, cb.steps);
+  EXPECT_EQ(ca.time, cb.time);
+  EXPECT_EQ(ca.node_x, cb.node_x);
+  EXPECT_EQ(ca.node_v, cb.node_v);
+  EXPECT_EQ(ca.elem_Q, cb.elem_Q);
+  EXPECT_EQ(ca.elem_w, cb.elem_w);
+  EXPECT_EQ(ca.dissipated, cb.dissipated);
 }
 
 TEST(Cli, SweepPutsEveryVariationInOneBatchAndSummarisesIt) {
