@@ -13,7 +13,11 @@ MANYRODS_PACKAGES=(
   libeigen3-dev     # host-side linear algebra: statics, stable_dt, tests
   libgtest-dev      # GoogleTest
   libbenchmark-dev  # Google Benchmark (bench/)
-  gnuplot-nox       # PNG plots of the speed-vs-error study (tools/run-accuracy)
+  libtomlplusplus-dev  # toml++: scene files (host/scene.cpp), with file:line of every key
+  libcli11-dev      # CLI11: options and subcommands of build/bin/manyrods
+  libhdf5-dev       # HDF5 C library: trajectories, energies and checkpoints (host/h5io.cpp)
+  gnuplot-nox       # PNG plots: manyrods plot (pngcairo) and the speed-vs-error study (tools/run-accuracy)
+  python3-h5py      # tests/test_h5io: checks that h5py reads the output layout
 )
 
 manyrods_install_deps() {

@@ -1,0 +1,507 @@
+// host/h5io.cpp — HDF5 output, checkpoints and reading them back (host/h5io.h).
+#include "host/h5io.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+namespace manyrods::h5 {
+namespace {
+
+constexpr int kFormatVersion = 1;
+
+void quiet() {
+  static const bool done = [] {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions, not stderr noise
+    return true;
+  }();
+  (void)done;
+}
+
+// Owns one HDF5 identifier.
+class Id {
+ public:
+  Id() = default;
+  Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Id(Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
+  Id& operator=(Id&& o) noexcept {
+    if (this != &o) {
+      reset();
+      id_ = o.id_;
+      close_ = o.close_;
+      o.id_ = -1;
+    }
+    return *this;
+  }
+  ~Id() { reset(); }
+  void reset() {
+    if (id_ >= 0 && close_) close_(id_);
+    id_ = -1;
+  }
+  hid_t get() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_ = -1;
+  herr_t (*close_)(hid_t) = nullptr;
+};
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw H5Error(path + ": " + what);
+}
+
+Id checked(hid_t id, herr_t (*close)(hid_t), const std::string& path, const std::string& what) {
+  if (id < 0) fail(path, what);
+  return Id(id, close);
+}
+void check(herr_t e, const std::string& path, const std::string& what) {
+  if (e < 0) fail(path, what);
+}
+
+Id string_type() {
+  Id t(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(t.get(), H5T_VARIABLE);
+  H5Tset_cset(t.get(), H5T_CSET_UTF8);
+  return t;
+}
+
+void attr_string(hid_t obj, const char* name, const std::string& value, const std::string& path) {
+  const Id t = string_type();
+  const Id sp(H5Screate(H5S_SCALAR), H5Sclose);
+  const Id a = checked(H5Acreate2(obj, name, t.get(), sp.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, path,
+                       std::string("cannot create attribute ") + name);
+  const char* p = value.c_str();
+  check(H5Awrite(a.get(), t.get(), &p), path, std::string("cannot write attribute ") + name);
+}
+
+template <class V>
+void attr_scalar(hid_t obj, const char* name, V value, hid_t type, const std::string& path) {
+  const Id sp(H5Screate(H5S_SCALAR), H5Sclose);
+  const Id a = checked(H5Acreate2(obj, name, type, sp.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, path,
+                       std::string("cannot create attribute ") + name);
+  check(H5Awrite(a.get(), type, &value), path, std::string("cannot write attribute ") + name);
+}
+
+bool has_attr(hid_t obj, const char* name) { return H5Aexists(obj, name) > 0; }
+
+std::string read_attr_string(hid_t obj, const char* name, const std::string& path, const std::string& where) {
+  if (!has_attr(obj, name)) fail(path, "missing attribute " + where + name);
+  const Id a =
+      checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, path, "cannot open attribute " + where + name);
+  const Id ft(H5Aget_type(a.get()), H5Tclose);
+  if (H5Tget_class(ft.get()) != H5T_STRING) fail(path, "attribute " + where + name + " is not a string");
+  if (H5Tis_variable_str(ft.get()) > 0) {
+    const Id t = string_type();
+    char* p = nullptr;
+    check(H5Aread(a.get(), t.get(), &p), path, "cannot read attribute " + where + name);
+    std::string s = p ? p : "";
+    H5free_memory(p);
+    return s;
+  }
+  const std::size_t n = H5Tget_size(ft.get());
+  std::string s(n, '\0');
+  const Id t(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(t.get(), n);
+  check(H5Aread(a.get(), t.get(), s.data()), path, "cannot read attribute " + where + name);
+  s.resize(std::strlen(s.c_str()));
+  return s;
+}
+
+template <class V>
+V read_attr_scalar(hid_t obj, const char* name, hid_t type, const std::string& path,
+                   const std::string& where) {
+  if (!has_attr(obj, name)) fail(path, "missing attribute " + where + name);
+  const Id a =
+      checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, path, "cannot open attribute " + where + name);
+  V v{};
+  check(H5Aread(a.get(), type, &v), path, "cannot read attribute " + where + name);
+  return v;
+}
+
+bool deflate_available() { return H5Zfilter_avail(H5Z_FILTER_DEFLATE) > 0; }
+
+// A chunked, compressed dataset; dims[0] unlimited when `extendable`.
+Id create_dataset(hid_t loc, const char* name, hid_t type, const std::vector<hsize_t>& dims,
+                  const std::vector<hsize_t>& chunk, bool extendable, const std::string& path) {
+  std::vector<hsize_t> maxdims = dims;
+  if (extendable) maxdims[0] = H5S_UNLIMITED;
+  const Id sp = checked(H5Screate_simple(int(dims.size()), dims.data(), maxdims.data()), H5Sclose, path,
+                        std::string("cannot create dataspace for ") + name);
+  const Id pl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  check(H5Pset_chunk(pl.get(), int(chunk.size()), chunk.data()), path, std::string("bad chunk for ") + name);
+  if (deflate_available()) {
+    H5Pset_shuffle(pl.get());
+    H5Pset_deflate(pl.get(), 4);
+  }
+  return checked(H5Dcreate2(loc, name, type, sp.get(), H5P_DEFAULT, pl.get(), H5P_DEFAULT), H5Dclose, path,
+                 std::string("cannot create dataset ") + name);
+}
+
+template <class V>
+void write_vector(hid_t loc, const char* name, hid_t type, const std::vector<V>& v, const std::string& path) {
+  const std::vector<hsize_t> dims{hsize_t(v.size())};
+  const std::vector<hsize_t> chunk{std::max<hsize_t>(1, std::min<hsize_t>(v.size(), 1 << 16))};
+  const Id d = create_dataset(loc, name, type, dims, chunk, false, path);
+  if (!v.empty())
+    check(H5Dwrite(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path,
+          std::string("cannot write ") + name);
+}
+
+// Appends one row (all but the first dimension) to an extendable dataset.
+void append_row(hid_t d, hid_t type, std::int64_t row, const std::vector<hsize_t>& tail, const void* data,
+                const std::string& path, const char* name) {
+  std::vector<hsize_t> dims{hsize_t(row + 1)};
+  dims.insert(dims.end(), tail.begin(), tail.end());
+  check(H5Dset_extent(d, dims.data()), path, std::string("cannot extend ") + name);
+  const Id fs(H5Dget_space(d), H5Sclose);
+  std::vector<hsize_t> start(dims.size(), 0), count = dims;
+  start[0] = hsize_t(row);
+  count[0] = 1;
+  check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), path,
+        std::string("cannot select a row of ") + name);
+  const Id ms(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose);
+  check(H5Dwrite(d, type, ms.get(), fs.get(), H5P_DEFAULT, data), path, std::string("cannot write ") + name);
+}
+
+std::vector<hsize_t> dataset_dims(hid_t d) {
+  const Id sp(H5Dget_space(d), H5Sclose);
+  const int rank = H5Sget_simple_extent_ndims(sp.get());
+  std::vector<hsize_t> dims(std::max(rank, 0));
+  if (rank > 0) H5Sget_simple_extent_dims(sp.get(), dims.data(), nullptr);
+  return dims;
+}
+
+std::string dims_str(const std::vector<hsize_t>& d) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < d.size(); ++i) s += (i ? ", " : "") + std::to_string(d[i]);
+  return s + "]";
+}
+
+Id open_dataset(hid_t loc, const char* name, const std::string& path) {
+  if (H5Lexists(loc, name, H5P_DEFAULT) <= 0) fail(path, std::string("missing dataset ") + name);
+  return checked(H5Dopen2(loc, name, H5P_DEFAULT), H5Dclose, path,
+                 std::string("cannot open dataset ") + name);
+}
+
+template <class V>
+std::vector<V> read_vector(hid_t loc, const char* name, hid_t type, const std::string& path) {
+  const Id d = open_dataset(loc, name, path);
+  const auto dims = dataset_dims(d.get());
+  if (dims.size() != 1) fail(path, std::string(name) + " has shape " + dims_str(dims) + ", expected 1-D");
+  std::vector<V> v(dims[0]);
+  if (!v.empty())
+    check(H5Dread(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path,
+          std::string("cannot read ") + name + " (truncated or damaged file?)");
+  return v;
+}
+
+// Opens a manyrods file read-only with clear errors for the usual problems.
+Id open_manyrods(const std::string& path) {
+  quiet();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail(path, "no such file");
+  if (H5Fis_hdf5(path.c_str()) <= 0) fail(path, "not an HDF5 file (no HDF5 signature)");
+  Id f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!f.ok()) fail(path, "cannot open this HDF5 file (truncated or damaged?)");
+  if (!has_attr(f.get(), "format") || read_attr_string(f.get(), "format", path, "/") != "manyrods")
+    fail(path, "an HDF5 file, but not a manyrods output (no root attribute format = \"manyrods\")");
+  const auto v = read_attr_scalar<std::int64_t>(f.get(), "format_version", H5T_NATIVE_INT64, path, "/");
+  if (v != kFormatVersion)
+    fail(path,
+         "format_version " + std::to_string(v) + ", this manyrods reads " + std::to_string(kFormatVersion));
+  return f;
+}
+
+const char* kEnergyNames[5] = {"kinetic", "elastic", "potential", "dissipated", "dissipation_rate"};
+
+}  // namespace
+
+// ---- Writer ------------------------------------------------------------------
+
+struct Writer::Impl {
+  std::string path, tmp;
+  Layout layout;
+  Id file, time, pos, dir, energy_group;
+  Id energy[5];
+  std::int64_t frames = 0, nodes = 0, elements = 0;
+  bool closed = false;
+
+  hid_t real_type() const { return layout.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE; }
+  void close() {
+    for (auto& e : energy) e.reset();
+    energy_group.reset();
+    dir.reset();
+    pos.reset();
+    time.reset();
+    if (file.ok()) H5Fflush(file.get(), H5F_SCOPE_GLOBAL);
+    file.reset();
+    closed = true;
+  }
+};
+
+Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& info) : impl_(new Impl) {
+  quiet();
+  Impl& w = *impl_;
+  w.path = path;
+  w.tmp = path + ".tmp";
+  w.layout = layout;
+  if (layout.node_offsets.size() < 2 || layout.element_offsets.size() != layout.node_offsets.size())
+    fail(path, "writer: bad layout (no rods)");
+  w.nodes = layout.node_offsets.back();
+  w.elements = layout.element_offsets.back();
+  w.file = checked(H5Fcreate(w.tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, w.tmp,
+                   "cannot create the output file (directory missing or not writable?)");
+  const hid_t f = w.file.get();
+  attr_string(f, "format", "manyrods", w.tmp);
+  attr_scalar<std::int64_t>(f, "format_version", kFormatVersion, H5T_NATIVE_INT64, w.tmp);
+  attr_string(f, "precision", layout.float32 ? "float" : "double", w.tmp);
+  attr_string(f, "integrator", info.integrator, w.tmp);
+  attr_scalar<double>(f, "dt", info.dt, H5T_NATIVE_DOUBLE, w.tmp);
+  {
+    const Id g = checked(H5Gcreate2(f, "scene", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                         "cannot create /scene");
+    attr_string(g.get(), "text", info.scene_text, w.tmp);
+    attr_string(g.get(), "source", info.scene_source, w.tmp);
+  }
+  write_vector(f, "node_offsets", H5T_NATIVE_INT64, layout.node_offsets, w.tmp);
+  write_vector(f, "element_offsets", H5T_NATIVE_INT64, layout.element_offsets, w.tmp);
+  {
+    const Id g = checked(H5Gcreate2(f, "rods", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                         "cannot create /rods");
+    write_vector(g.get(), "group", H5T_NATIVE_INT32, layout.rod_group, w.tmp);
+    write_vector(g.get(), "width", H5T_NATIVE_DOUBLE, layout.rod_width, w.tmp);
+    std::string names;
+    for (std::size_t i = 0; i < layout.group_names.size(); ++i)
+      names += (i ? "\n" : "") + layout.group_names[i];
+    attr_string(g.get(), "group_names", names, w.tmp);
+  }
+  const hsize_t nc = std::min<hsize_t>(hsize_t(w.nodes), 1 << 16),
+                ec = std::min<hsize_t>(hsize_t(w.elements), 1 << 14);
+  w.time = create_dataset(f, "time", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
+  w.pos =
+      create_dataset(f, "node_position", w.real_type(), {0, hsize_t(w.nodes), 3}, {1, nc, 3}, true, w.tmp);
+  if (layout.directors)
+    w.dir = create_dataset(f, "element_directors", w.real_type(), {0, hsize_t(w.elements), 3, 3},
+                           {1, ec, 3, 3}, true, w.tmp);
+  w.energy_group = checked(H5Gcreate2(f, "energy", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                           "cannot create /energy");
+  for (int i = 0; i < 5; ++i)
+    w.energy[i] =
+        create_dataset(w.energy_group.get(), kEnergyNames[i], H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
+  attr_string(w.energy_group.get(), "units", "J (dissipation_rate: W)", w.tmp);
+}
+
+Writer::~Writer() {
+  if (impl_ && !impl_->closed) {
+    impl_->close();
+    std::remove(impl_->tmp.c_str());
+  }
+}
+
+void Writer::append_frame(double t, const void* positions, const void* directors, const EnergyRow& e) {
+  Impl& w = *impl_;
+  append_row(w.time.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &t, w.tmp, "time");
+  append_row(w.pos.get(), w.real_type(), w.frames, {hsize_t(w.nodes), 3}, positions, w.tmp, "node_position");
+  if (w.layout.directors)
+    append_row(w.dir.get(), w.real_type(), w.frames, {hsize_t(w.elements), 3, 3}, directors, w.tmp,
+               "element_directors");
+  const double v[5] = {e.kinetic, e.elastic, e.potential, e.dissipated, e.dissipation_rate};
+  for (int i = 0; i < 5; ++i)
+    append_row(w.energy[i].get(), H5T_NATIVE_DOUBLE, w.frames, {}, &v[i], w.tmp, kEnergyNames[i]);
+  ++w.frames;
+}
+
+void Writer::write_checkpoint(const Checkpoint& c) {
+  Impl& w = *impl_;
+  const hid_t f = w.file.get();
+  if (H5Lexists(f, "checkpoint", H5P_DEFAULT) > 0) H5Ldelete(f, "checkpoint", H5P_DEFAULT);
+  const Id g = checked(H5Gcreate2(f, "checkpoint", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                       "cannot create /checkpoint");
+  attr_string(g.get(), "precision", c.float32 ? "float" : "double", w.tmp);
+  attr_scalar<std::int64_t>(g.get(), "slots", c.slots, H5T_NATIVE_INT64, w.tmp);
+  attr_scalar<double>(g.get(), "time", c.time, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<double>(g.get(), "dt", c.dt, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<std::int64_t>(g.get(), "steps", c.steps, H5T_NATIVE_INT64, w.tmp);
+  attr_scalar<double>(g.get(), "dissipated", c.dissipated, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<double>(g.get(), "last_dissipation_rate", c.last_rate, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<std::int64_t>(g.get(), "frames_written", c.frames_written, H5T_NATIVE_INT64, w.tmp);
+  const hid_t type = c.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
+  const std::size_t es = c.float32 ? 4 : 8;
+  auto put = [&](const char* name, const std::vector<unsigned char>& bytes, hsize_t rows) {
+    if (bytes.size() != rows * std::size_t(c.slots) * es)
+      fail(w.tmp, std::string("checkpoint: wrong size of ") + name);
+    const hsize_t chunk = std::max<hsize_t>(1, std::min<hsize_t>(hsize_t(c.slots), 1 << 16));
+    const Id d = create_dataset(g.get(), name, type, {rows, hsize_t(c.slots)}, {1, chunk}, false, w.tmp);
+    check(H5Dwrite(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()), w.tmp,
+          std::string("cannot write checkpoint/") + name);
+  };
+  put("node_x", c.node_x, 3);
+  put("node_v", c.node_v, 3);
+  put("elem_Q", c.elem_Q, 9);
+  put("elem_w", c.elem_w, 3);
+}
+
+void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
+                         const std::vector<std::int32_t>& variation_first_rod) {
+  Impl& w = *impl_;
+  const Id g = checked(H5Gcreate2(w.file.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                       w.tmp, "cannot create /sweep");
+  write_vector(g.get(), "variation_first_rod", H5T_NATIVE_INT32, variation_first_rod, w.tmp);
+  auto group = [&](const char* name, const std::vector<Column>& cols) {
+    const Id sg = checked(H5Gcreate2(g.get(), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                          std::string("cannot create /sweep/") + name);
+    std::string order;
+    for (const Column& c : cols) {
+      write_vector(sg.get(), c.name.c_str(), H5T_NATIVE_DOUBLE, c.values, w.tmp);
+      order += (order.empty() ? "" : "\n") + c.name;
+    }
+    attr_string(sg.get(), "order", order, w.tmp);
+  };
+  group("parameters", parameters);
+  group("summary", summary);
+}
+
+std::int64_t Writer::frames() const { return impl_->frames; }
+const std::string& Writer::path() const { return impl_->path; }
+
+void Writer::finish() {
+  Impl& w = *impl_;
+  if (w.closed) return;
+  w.close();
+  std::error_code ec;
+  std::filesystem::rename(w.tmp, w.path, ec);
+  if (ec) fail(w.path, "cannot rename " + w.tmp + " to it: " + ec.message());
+}
+
+// ---- reading -----------------------------------------------------------------
+
+Checkpoint read_checkpoint(const std::string& path) {
+  const Id f = open_manyrods(path);
+  if (H5Lexists(f.get(), "checkpoint", H5P_DEFAULT) <= 0)
+    fail(path, "no /checkpoint group (not a finished or interrupted manyrods run)");
+  const Id g =
+      checked(H5Gopen2(f.get(), "checkpoint", H5P_DEFAULT), H5Gclose, path, "cannot open /checkpoint");
+  Checkpoint c;
+  const std::string where = "/checkpoint.";
+  const std::string prec = read_attr_string(g.get(), "precision", path, where);
+  if (prec != "float" && prec != "double") fail(path, "/checkpoint.precision is \"" + prec + "\"");
+  c.float32 = prec == "float";
+  c.slots = read_attr_scalar<std::int64_t>(g.get(), "slots", H5T_NATIVE_INT64, path, where);
+  c.time = read_attr_scalar<double>(g.get(), "time", H5T_NATIVE_DOUBLE, path, where);
+  c.dt = read_attr_scalar<double>(g.get(), "dt", H5T_NATIVE_DOUBLE, path, where);
+  c.steps = read_attr_scalar<std::int64_t>(g.get(), "steps", H5T_NATIVE_INT64, path, where);
+  c.dissipated = read_attr_scalar<double>(g.get(), "dissipated", H5T_NATIVE_DOUBLE, path, where);
+  c.last_rate = read_attr_scalar<double>(g.get(), "last_dissipation_rate", H5T_NATIVE_DOUBLE, path, where);
+  c.frames_written = read_attr_scalar<std::int64_t>(g.get(), "frames_written", H5T_NATIVE_INT64, path, where);
+  const Id sg = checked(H5Gopen2(f.get(), "scene", H5P_DEFAULT), H5Gclose, path, "missing group /scene");
+  c.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
+  c.scene_source = read_attr_string(sg.get(), "source", path, "/scene.");
+  if (c.slots <= 0 || !(c.dt > 0))
+    fail(path, "/checkpoint has slots = " + std::to_string(c.slots) + ", dt = " + std::to_string(c.dt));
+  const hid_t type = c.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
+  const std::size_t es = c.float32 ? 4 : 8;
+  auto get = [&](const char* name, std::vector<unsigned char>& bytes, hsize_t rows) {
+    const Id d = open_dataset(g.get(), name, path);
+    const auto dims = dataset_dims(d.get());
+    if (dims != std::vector<hsize_t>{rows, hsize_t(c.slots)})
+      fail(path, std::string("/checkpoint/") + name + " has shape " + dims_str(dims) + ", expected " +
+                     dims_str({rows, hsize_t(c.slots)}));
+    const Id ft(H5Dget_type(d.get()), H5Tclose);
+    if (H5Tget_class(ft.get()) != H5T_FLOAT || H5Tget_size(ft.get()) != es)
+      fail(path, std::string("/checkpoint/") + name + " is not " + prec + " data");
+    bytes.resize(rows * std::size_t(c.slots) * es);
+    check(H5Dread(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()), path,
+          std::string("cannot read /checkpoint/") + name + " (truncated or damaged file?)");
+  };
+  get("node_x", c.node_x, 3);
+  get("node_v", c.node_v, 3);
+  get("elem_Q", c.elem_Q, 9);
+  get("elem_w", c.elem_w, 3);
+  c.from_sweep = H5Lexists(f.get(), "sweep", H5P_DEFAULT) > 0;
+  return c;
+}
+
+struct Reader::Impl {
+  std::string path;
+  Id file, pos;
+  Output out;
+  std::int64_t frames = 0;
+};
+
+Reader::Reader(const std::string& path) : impl_(new Impl) {
+  Impl& r = *impl_;
+  r.path = path;
+  r.file = open_manyrods(path);
+  const hid_t f = r.file.get();
+  Output& o = r.out;
+  o.dt = read_attr_scalar<double>(f, "dt", H5T_NATIVE_DOUBLE, path, "/");
+  o.time = read_vector<double>(f, "time", H5T_NATIVE_DOUBLE, path);
+  o.node_offsets = read_vector<std::int64_t>(f, "node_offsets", H5T_NATIVE_INT64, path);
+  o.element_offsets = read_vector<std::int64_t>(f, "element_offsets", H5T_NATIVE_INT64, path);
+  if (o.node_offsets.size() < 2) fail(path, "/node_offsets has fewer than 2 entries");
+  o.nodes = o.node_offsets.back();
+  o.rod_group = read_vector<std::int32_t>(f, "rods/group", H5T_NATIVE_INT32, path);
+  o.rod_width = read_vector<double>(f, "rods/width", H5T_NATIVE_DOUBLE, path);
+  if (std::int64_t(o.rod_group.size()) + 1 != std::int64_t(o.node_offsets.size()) ||
+      o.rod_width.size() != o.rod_group.size())
+    fail(path, "/rods/group and /rods/width do not have one entry per rod");
+  {
+    const Id g = checked(H5Gopen2(f, "rods", H5P_DEFAULT), H5Gclose, path, "cannot open /rods");
+    std::stringstream ss(read_attr_string(g.get(), "group_names", path, "/rods."));
+    for (std::string n; std::getline(ss, n);) o.group_names.push_back(n);
+  }
+  r.frames = std::int64_t(o.time.size());
+  {
+    const Id sg = checked(H5Gopen2(f, "scene", H5P_DEFAULT), H5Gclose, path, "missing group /scene");
+    o.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
+  }
+  std::vector<std::vector<double>> e(5);
+  for (int i = 0; i < 5; ++i) {
+    e[i] =
+        read_vector<double>(f, (std::string("energy/") + kEnergyNames[i]).c_str(), H5T_NATIVE_DOUBLE, path);
+    if (std::int64_t(e[i].size()) != r.frames)
+      fail(path, std::string("/energy/") + kEnergyNames[i] + " has " + std::to_string(e[i].size()) +
+                     " entries, /time " + std::to_string(r.frames));
+  }
+  for (std::int64_t k = 0; k < r.frames; ++k)
+    o.energy.push_back({e[0][k], e[1][k], e[2][k], e[3][k], e[4][k]});
+  r.pos = open_dataset(f, "node_position", path);
+  const auto dims = dataset_dims(r.pos.get());
+  const std::vector<hsize_t> want{hsize_t(r.frames), hsize_t(o.nodes), 3};
+  if (dims != want) fail(path, "/node_position has shape " + dims_str(dims) + ", expected " + dims_str(want));
+  if (H5Lexists(f, "sweep", H5P_DEFAULT) > 0) {
+    o.has_sweep = true;
+    auto cols = [&](const char* name, std::vector<Column>& out) {
+      const std::string gp = std::string("sweep/") + name;
+      const Id g = checked(H5Gopen2(f, gp.c_str(), H5P_DEFAULT), H5Gclose, path, "missing group /" + gp);
+      std::stringstream ss(read_attr_string(g.get(), "order", path, "/" + gp + "."));
+      for (std::string n; std::getline(ss, n);)
+        out.push_back({n, read_vector<double>(g.get(), n.c_str(), H5T_NATIVE_DOUBLE, path)});
+    };
+    cols("parameters", o.sweep_parameters);
+    cols("summary", o.sweep_summary);
+  }
+}
+
+Reader::~Reader() = default;
+const Output& Reader::output() const { return impl_->out; }
+std::int64_t Reader::frames() const { return impl_->frames; }
+
+void Reader::read_positions(std::int64_t f, std::vector<double>& out) const {
+  const Impl& r = *impl_;
+  if (f < 0 || f >= r.frames) fail(r.path, "frame " + std::to_string(f) + " out of range");
+  out.resize(std::size_t(r.out.nodes) * 3);
+  const Id fs(H5Dget_space(r.pos.get()), H5Sclose);
+  const hsize_t start[3] = {hsize_t(f), 0, 0}, count[3] = {1, hsize_t(r.out.nodes), 3};
+  check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), r.path,
+        "bad frame selection");
+  const Id ms(H5Screate_simple(3, count, nullptr), H5Sclose);
+  check(H5Dread(r.pos.get(), H5T_NATIVE_DOUBLE, ms.get(), fs.get(), H5P_DEFAULT, out.data()), r.path,
+        "cannot read /node_position frame " + std::to_string(f) + " (truncated or damaged file?)");
+}
+
+}  // namespace manyrods::h5

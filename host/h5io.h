@@ -1,0 +1,137 @@
+// host/h5io.h — the HDF5 output file of a run (layout in docs/scenes.md,
+// "Output file"), its checkpoint, and reading both back. HDF5 C API.
+//
+//   /time                 [frames]                 s
+//   /node_offsets         [rods + 1]               rod r owns nodes [o_r, o_{r+1})
+//   /element_offsets      [rods + 1]               rod r owns elements [o_r, o_{r+1})
+//   /node_position        [frames, nodes, 3]       m, lab frame (float or double)
+//   /element_directors    [frames, elements, 3, 3] rows d1, d2, d3 (optional)
+//   /energy/{kinetic, elastic, potential, dissipated, dissipation_rate}  [frames]
+//   /rods/{group, width}  [rods]                   group index, section width (m);
+//                         attribute group_names (one per line)
+//   /scene                group; attributes text (the scene TOML), source
+//   /checkpoint           the full State: node_x, node_v [3, slots],
+//                         elem_Q [9, slots], elem_w [3, slots] in the run's
+//                         precision, raw slot arrays (ghosts included), and
+//                         attributes time, steps, dt, dissipated, ...
+//   /sweep                (manyrods sweep) parameters and summary columns
+// Root attributes: format = "manyrods", format_version = 1, precision,
+// integrator, dt. Frames are chunked one frame per chunk (at most 2^16 nodes)
+// and compressed (shuffle + deflate).
+//
+// The writer creates `<path>.tmp` and renames it to `<path>` in finish(), so
+// an existing output is never left half-written.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace manyrods::h5 {
+
+// Every problem reading or writing an HDF5 file; what() names the file.
+struct H5Error : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Layout {
+  std::vector<std::int64_t> node_offsets, element_offsets;  // [rods + 1]
+  std::vector<std::int32_t> rod_group;                      // [rods]
+  std::vector<double> rod_width;                            // [rods]
+  std::vector<std::string> group_names;                     // [groups]
+  bool float32 = false;
+  bool directors = true;
+};
+
+struct RunInfo {
+  std::string scene_text, scene_source;
+  std::string integrator;  // "position_verlet" | "pefrl"
+  double dt = 0;
+};
+
+struct EnergyRow {
+  double kinetic = 0, elastic = 0, potential = 0, dissipated = 0, dissipation_rate = 0;
+};
+
+// The state of a run at one step: the batch's State arrays (raw slots, the
+// run's precision; stored as bytes) plus what continues the energy record.
+struct Checkpoint {
+  bool float32 = false;
+  std::int64_t slots = 0;
+  double time = 0, dt = 0;
+  std::int64_t steps = 0;
+  double dissipated = 0;            // ∫ 2·D_v dt so far, J
+  double last_rate = 0;             // 2·D_v at the last energy sample, W
+  std::int64_t frames_written = 0;  // frames of the run up to this state
+  std::string scene_text, scene_source;
+  bool from_sweep = false;  // the file is a sweep's (read only)
+  // [3][slots], [3][slots], [9][slots], [3][slots] of float or double, as bytes
+  std::vector<unsigned char> node_x, node_v, elem_Q, elem_w;
+};
+
+// A named column of values per sweep variation.
+struct Column {
+  std::string name;
+  std::vector<double> values;
+};
+
+class Writer {
+ public:
+  Writer(const std::string& path, const Layout& layout, const RunInfo& info);
+  ~Writer();  // without finish(): closes and removes the temporary file
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  // positions: [nodes * 3]; directors: [elements * 9] (ignored unless
+  // layout.directors); the pointer type must match layout.float32.
+  void append_frame(double time, const void* positions, const void* directors, const EnergyRow& energy);
+  void write_checkpoint(const Checkpoint& c);
+  void write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
+                   const std::vector<std::int32_t>& variation_first_rod);
+  std::int64_t frames() const;
+  // Closes the file and renames <path>.tmp to <path>.
+  void finish();
+  const std::string& path() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Reads /checkpoint and /scene (H5Error for missing, foreign or truncated files).
+Checkpoint read_checkpoint(const std::string& path);
+
+// A whole output file in memory, as double (for export and plots).
+struct Output {
+  std::vector<double> time;  // [frames]
+  std::vector<std::int64_t> node_offsets, element_offsets;
+  std::vector<std::int32_t> rod_group;
+  std::vector<double> rod_width;
+  std::vector<std::string> group_names;
+  std::int64_t nodes = 0;
+  std::vector<EnergyRow> energy;  // [frames]
+  std::string scene_text;
+  double dt = 0;
+  bool has_sweep = false;
+  std::vector<Column> sweep_parameters, sweep_summary;
+};
+
+class Reader {
+ public:
+  explicit Reader(const std::string& path);  // H5Error if not a manyrods output
+  ~Reader();
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+  const Output& output() const;
+  std::int64_t frames() const;
+  // Node positions of frame f, [nodes * 3], as double.
+  void read_positions(std::int64_t f, std::vector<double>& out) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace manyrods::h5

@@ -1,0 +1,78 @@
+// host/runner.h — running a scene into an HDF5 file (the `manyrods run` and
+// `manyrods sweep` commands; host/h5io.h has the file layout).
+//
+// The run advances in chunks that end at the "sample points": every 64th
+// step, every output frame (output_interval rounded to whole steps) and the
+// last step, all counted from step 0 of the run. At each sample point the
+// dissipation rate 2·D_v is evaluated and integrated by the trapezoidal
+// rule into /energy/dissipated (so E_mech + dissipated stays constant up to
+// the integrator's and the quadrature's error); at each frame the positions,
+// directors and energies are written. SIGINT (Ctrl-C) and --until stop at a
+// sample point; the file is then closed with the frames so far and a
+// checkpoint. Because the sample points depend only on the step number, a
+// restart from that checkpoint continues exactly as the uninterrupted run:
+// the same steps in the same order (bit-identical state) and the same
+// quadrature points.
+#pragma once
+
+#include <csignal>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "host/h5io.h"
+#include "host/scene.h"
+#include "manyrods/manyrods.h"
+
+namespace manyrods::scene {
+
+inline constexpr std::int64_t kSampleSteps = 64;
+
+// A rod whose tip is recorded at every sample point, and the rods
+// [rods_begin, rods_end) whose strain and energies are summarised with it
+// (one sweep variation).
+struct Probe {
+  int tip_rod = 0;
+  int rods_begin = 0, rods_end = 0;
+};
+
+struct ProbeRecord {
+  std::vector<double> time;  // s, at the sample points
+  std::vector<Vec3> tip;     // tip position, m
+  double max_strain = 0;     // over its rods, over the sample points
+  Energies final_energy;     // summed over its rods at the end
+  double dissipated = 0;     // ∫ 2·D_v dt over its rods, J
+};
+
+struct RunOptions {
+  std::string output;  // HDF5 path (written as <output>.tmp, renamed at the end)
+  int threads = 1;
+  double until = -1;      // stop at the first sample point at or after this time (< 0: never)
+  double duration = -1;   // overrides [simulation] duration when > 0
+  bool progress = false;  // progress line on stderr
+  const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
+  std::vector<Probe> probes;
+  // Called before the file is closed (the sweep adds /sweep here).
+  std::function<void(h5::Writer&, const std::vector<ProbeRecord>&)> before_finish;
+};
+
+struct RunResult {
+  double dt = 0;
+  std::int64_t first_step = 0, steps = 0, total_steps = 0;  // steps: the last step reached
+  double time = 0;                                          // simulated time reached, s
+  std::int64_t frames = 0;                                  // written to this file
+  std::int64_t elements = 0;
+  bool interrupted = false;  // SIGINT or --until before the end
+  double wall_s = 0, element_steps_per_s = 0;
+  std::vector<ProbeRecord> probes;
+};
+
+// Runs the scene (from its initial state, or from `restart`, whose scene
+// must be `s`) and writes the output. Throws SceneError, h5::H5Error,
+// NonFiniteError (the output file is then not written; an existing one is
+// kept).
+RunResult run_scene(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart = nullptr);
+
+}  // namespace manyrods::scene

@@ -1,0 +1,720 @@
+// host/scene.cpp — parsing and validating TOML scenes (host/scene.h,
+// docs/scenes.md). toml++ keeps the source position of every node, so each
+// error names file, line, column and the key path.
+#include "host/scene.h"
+
+#include <toml++/toml.h>
+#include <unistd.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+namespace manyrods::scene {
+namespace {
+
+using E3 = Eigen::Vector3d;
+
+E3 to_e(const Vec3& v) { return {v[0], v[1], v[2]}; }
+Vec3 from_e(const E3& v) { return {v[0], v[1], v[2]}; }
+
+std::string num(double v) {
+  std::ostringstream os;
+  os.precision(10);
+  os << v;
+  return os.str();
+}
+
+// Context of one scene being parsed.
+struct Ctx {
+  std::string source;
+  std::set<const toml::node*> overridden;  // nodes set by --vary (no source position)
+
+  std::string where(const toml::node& n) const {
+    const auto& b = n.source().begin;
+    if (overridden.count(&n) || b.line == 0) return source + ": ";
+    return source + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) + ": ";
+  }
+  std::string tag(const toml::node& n) const { return overridden.count(&n) ? " (set by --vary)" : ""; }
+  [[noreturn]] void fail(const toml::node& n, const std::string& path, const std::string& msg) const {
+    throw SceneError(where(n) + path + tag(n) + ": " + msg);
+  }
+};
+
+const char* type_name(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::array:
+      return "an array";
+    case toml::node_type::string:
+      return "a string";
+    case toml::node_type::integer:
+      return "an integer";
+    case toml::node_type::floating_point:
+      return "a float";
+    case toml::node_type::boolean:
+      return "a boolean";
+    default:
+      return "a date/time";
+  }
+}
+
+// A table with a fixed set of allowed keys.
+struct Table {
+  const Ctx& ctx;
+  const toml::table& t;
+  std::string path;  // "rods.0.material"
+
+  Table(const Ctx& c, const toml::table& tbl, std::string p, std::initializer_list<const char*> allowed)
+      : ctx(c), t(tbl), path(std::move(p)) {
+    for (auto&& [k, v] : t) {
+      bool ok = false;
+      for (const char* a : allowed) ok = ok || k.str() == a;
+      if (!ok) {
+        std::string list;
+        for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
+        const auto& b = k.source().begin;
+        const std::string loc =
+            b.line ? ctx.source + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) + ": "
+                   : ctx.where(v);
+        throw SceneError(loc + key(std::string(k.str())) + ": unknown key (allowed here: " + list + ")");
+      }
+    }
+  }
+  std::string key(const std::string& k) const { return path.empty() ? k : path + "." + k; }
+  bool has(const char* k) const { return t.contains(k); }
+  const toml::node* get(const char* k) const { return t.get(k); }
+  [[noreturn]] void missing(const char* k, const std::string& why = "") const {
+    throw SceneError(ctx.where(t) + key(k) + ": missing" + (why.empty() ? " (required)" : " (" + why + ")"));
+  }
+  [[noreturn]] void fail(const char* k, const std::string& msg) const { ctx.fail(*t.get(k), key(k), msg); }
+
+  double number(const char* k) const {
+    const toml::node* n = get(k);
+    if (!n) missing(k);
+    return as_number(*n, key(k));
+  }
+  double number(const char* k, double dflt) const { return has(k) ? number(k) : dflt; }
+  double as_number(const toml::node& n, const std::string& p) const {
+    if (!n.is_number()) ctx.fail(n, p, std::string("must be a number, got ") + type_name(n));
+    const double v = *n.value<double>();
+    if (!std::isfinite(v)) ctx.fail(n, p, "must be finite (got " + num(v) + ")");
+    return v;
+  }
+  double positive(const char* k) const {
+    const double v = number(k);
+    if (!(v > 0)) fail(k, "must be > 0 (got " + num(v) + ")");
+    return v;
+  }
+  double non_negative(const char* k) const {
+    const double v = number(k);
+    if (!(v >= 0)) fail(k, "must be >= 0 (got " + num(v) + ")");
+    return v;
+  }
+  std::int64_t integer(const char* k, std::int64_t lo, std::int64_t hi) const {
+    const toml::node* n = get(k);
+    if (!n) missing(k);
+    if (!n->is_integer()) fail(k, std::string("must be an integer, got ") + type_name(*n));
+    const std::int64_t v = *n->value<std::int64_t>();
+    if (v < lo || v > hi)
+      fail(k, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got " +
+                  std::to_string(v) + ")");
+    return v;
+  }
+  std::string string(const char* k, std::initializer_list<const char*> choices) const {
+    const toml::node* n = get(k);
+    if (!n) missing(k);
+    if (!n->is_string()) fail(k, std::string("must be a string, got ") + type_name(*n));
+    const std::string v = n->as_string()->get();
+    std::string list;
+    for (const char* c : choices) {
+      if (v == c) return v;
+      list += std::string(list.empty() ? "" : ", ") + "\"" + c + "\"";
+    }
+    fail(k, "\"" + v + "\" is not one of " + list);
+  }
+  std::string text(const char* k) const {
+    const toml::node* n = get(k);
+    if (!n) missing(k);
+    if (!n->is_string()) fail(k, std::string("must be a string, got ") + type_name(*n));
+    return n->as_string()->get();
+  }
+  bool boolean(const char* k, bool dflt) const {
+    const toml::node* n = get(k);
+    if (!n) return dflt;
+    if (!n->is_boolean()) fail(k, std::string("must be true or false, got ") + type_name(*n));
+    return *n->value<bool>();
+  }
+  Vec3 vec3_of(const toml::node& n, const std::string& p) const {
+    const toml::array* a = n.as_array();
+    if (!a) ctx.fail(n, p, std::string("must be an array of 3 numbers, got ") + type_name(n));
+    if (a->size() != 3) ctx.fail(n, p, "must have 3 entries (got " + std::to_string(a->size()) + ")");
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) v[i] = as_number(*a->get(i), p + "." + std::to_string(i));
+    return v;
+  }
+  Vec3 vec3(const char* k) const {
+    const toml::node* n = get(k);
+    if (!n) missing(k);
+    return vec3_of(*n, key(k));
+  }
+  Vec3 vec3(const char* k, const Vec3& dflt) const { return has(k) ? vec3(k) : dflt; }
+  Vec3 nonzero_vec3(const char* k, const Vec3& dflt) const {
+    const Vec3 v = vec3(k, dflt);
+    if (!(to_e(v).norm() > 0)) fail(k, "must not be the zero vector");
+    return v;
+  }
+  Table sub(const char* k, std::initializer_list<const char*> allowed) const {
+    const toml::node* n = get(k);
+    if (!n) missing(k);
+    if (!n->is_table()) fail(k, std::string("must be a table, got ") + type_name(*n));
+    return Table(ctx, *n->as_table(), key(k), allowed);
+  }
+};
+
+// ---- [simulation] ------------------------------------------------------------
+
+Simulation parse_simulation(const Table& root) {
+  const Table t = root.sub("simulation", {"dt", "dt_safety", "duration", "integrator", "precision",
+                                          "output_interval", "gravity", "output_directors"});
+  Simulation s;
+  if (!t.has("dt")) t.missing("dt", "a time step in seconds, or \"auto\"");
+  const toml::node& dt = *t.get("dt");
+  if (dt.is_string()) {
+    if (dt.as_string()->get() != "auto") t.fail("dt", "must be a number of seconds or \"auto\"");
+    s.dt_auto = true;
+  } else {
+    s.dt_auto = false;
+    s.dt = t.number("dt");
+    if (!(s.dt > 0)) t.fail("dt", "must be > 0 (got " + num(s.dt) + "), or \"auto\"");
+  }
+  if (t.has("dt_safety")) {
+    if (!s.dt_auto) t.fail("dt_safety", "only used with dt = \"auto\"");
+    s.dt_safety = t.number("dt_safety");
+    if (!(s.dt_safety > 0 && s.dt_safety <= 1.5))
+      t.fail("dt_safety", "must be in (0, 1.5] (got " + num(s.dt_safety) + ")");
+  }
+  s.duration = t.positive("duration");
+  s.output_interval = t.has("output_interval") ? t.positive("output_interval") : s.duration / 100;
+  if (t.has("integrator"))
+    s.integrator = t.string("integrator", {"position_verlet", "pefrl"}) == "pefrl"
+                       ? Integrator::pefrl
+                       : Integrator::position_verlet;
+  if (t.has("precision"))
+    s.precision =
+        t.string("precision", {"double", "float"}) == "float" ? Precision::float32 : Precision::float64;
+  s.gravity = t.vec3("gravity", {0, 0, 0});
+  s.output_directors = t.boolean("output_directors", true);
+  return s;
+}
+
+// ---- [[rods]] ----------------------------------------------------------------
+
+struct Placement {
+  std::vector<Vec3> starts, directions, normals;  // [count]
+};
+
+// A unit vector perpendicular to d (d unit).
+E3 perpendicular(const E3& d, const E3& hint) {
+  E3 p = hint - hint.dot(d) * d;
+  if (p.norm() < 1e-6)
+    p = (std::abs(d.x()) < 0.9 ? E3::UnitX() : E3::UnitY()) - d * (std::abs(d.x()) < 0.9 ? d.x() : d.y());
+  return p.normalized();
+}
+
+// Uniform in [0, 1) from a 64-bit state (splitmix64): the same numbers on
+// every platform, unlike the std:: distributions.
+struct Rng {
+  std::uint64_t s;
+  double next() {
+    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return double(z >> 11) * 0x1.0p-53;
+  }
+};
+
+Placement parse_placement(const Table& g, int count, const Vec3& start, const Vec3& direction,
+                          const Vec3& normal) {
+  Placement p;
+  if (!g.has("placement")) {
+    if (count > 1)
+      g.missing("placement", "count > 1 needs a placement: kind = \"grid\", \"sphere\" or \"list\"");
+    p.starts = {start};
+    p.directions = {direction};
+    p.normals = {normal};
+    return p;
+  }
+  const toml::node* pn = g.get("placement");
+  if (!pn->is_table()) g.fail("placement", std::string("must be a table, got ") + type_name(*pn));
+  const toml::table& pt = *pn->as_table();
+  const toml::node* kn = pt.get("kind");
+  if (!kn)
+    Table(g.ctx, pt, g.key("placement"),
+          {"kind", "spacing", "columns", "axes", "center", "radius", "cap_angle", "axis", "seed", "starts"})
+        .missing("kind", "\"grid\", \"sphere\" or \"list\"");
+  if (!kn->is_string())
+    g.ctx.fail(*kn, g.key("placement.kind"), std::string("must be a string, got ") + type_name(*kn));
+  const std::string kind = kn->as_string()->get();
+  if (kind == "grid") {
+    const Table t(g.ctx, pt, g.key("placement"), {"kind", "spacing", "columns", "axes"});
+    const toml::node* sn = t.get("spacing");
+    if (!sn) t.missing("spacing", "[s1, s2] in m");
+    const toml::array* sa = sn->as_array();
+    if (!sa || sa->size() != 2) t.fail("spacing", "must be an array of 2 numbers [s1, s2]");
+    double sp[2];
+    for (int i = 0; i < 2; ++i) {
+      sp[i] = t.as_number(*sa->get(i), t.key("spacing") + "." + std::to_string(i));
+      if (!(sp[i] > 0)) g.ctx.fail(*sa->get(i), t.key("spacing") + "." + std::to_string(i), "must be > 0");
+    }
+    const int side = int(std::ceil(std::sqrt(double(count))));
+    const int columns = t.has("columns") ? int(t.integer("columns", 1, 1 << 30)) : side;
+    const E3 d = to_e(direction).normalized();
+    E3 u = perpendicular(d, to_e(normal)), v = d.cross(u);
+    if (t.has("axes")) {
+      const toml::array* aa = t.get("axes")->as_array();
+      if (!aa || aa->size() != 2)
+        t.fail("axes", "must be an array of two vectors [[ux, uy, uz], [vx, vy, vz]]");
+      u = to_e(t.vec3_of(*aa->get(0), t.key("axes.0")));
+      v = to_e(t.vec3_of(*aa->get(1), t.key("axes.1")));
+      if (!(u.norm() > 0) || !(v.norm() > 0) || u.normalized().cross(v.normalized()).norm() < 1e-6)
+        t.fail("axes", "must be two non-zero, non-parallel vectors");
+      u.normalize();
+      v.normalize();
+    }
+    for (int i = 0; i < count; ++i) {
+      p.starts.push_back(from_e(to_e(start) + (i % columns) * sp[0] * u + (i / columns) * sp[1] * v));
+      p.directions.push_back(direction);
+      p.normals.push_back(normal);
+    }
+  } else if (kind == "sphere") {
+    const Table t(g.ctx, pt, g.key("placement"), {"kind", "center", "radius", "cap_angle", "axis", "seed"});
+    for (const char* k : {"start", "direction", "normal"})
+      if (g.has(k))
+        g.fail(k,
+               "not used with placement.kind = \"sphere\": roots lie on the sphere and rods grow along its "
+               "outward normal");
+    const E3 c = to_e(t.vec3("center"));
+    const double r = t.positive("radius");
+    const double cap = t.number("cap_angle", 90);
+    if (!(cap > 0 && cap <= 180)) t.fail("cap_angle", "must be in (0, 180] degrees (got " + num(cap) + ")");
+    const E3 axis = to_e(t.nonzero_vec3("axis", {0, 0, 1})).normalized();
+    Rng rng{
+        std::uint64_t(t.has("seed") ? t.integer("seed", 0, std::numeric_limits<std::int64_t>::max()) : 0)};
+    const E3 e1 = perpendicular(axis, E3::UnitX()), e2 = axis.cross(e1);
+    const double cmin = std::cos(cap * std::numbers::pi / 180);
+    for (int i = 0; i < count; ++i) {
+      // uniform on the cap: cos θ uniform in [cos cap, 1], φ uniform
+      const double ct = 1 - rng.next() * (1 - cmin), phi = 2 * std::numbers::pi * rng.next();
+      const double st = std::sqrt(std::max(0.0, 1 - ct * ct));
+      const E3 n = ct * axis + st * (std::cos(phi) * e1 + std::sin(phi) * e2);
+      p.starts.push_back(from_e(c + r * n));
+      p.directions.push_back(from_e(n));
+      p.normals.push_back(from_e(perpendicular(n, axis.cross(n).norm() > 1e-6 ? axis.cross(n) : e1)));
+    }
+  } else if (kind == "list") {
+    const Table t(g.ctx, pt, g.key("placement"), {"kind", "starts"});
+    const toml::node* sn = t.get("starts");
+    if (!sn) t.missing("starts", "[[x, y, z], ...], one per rod");
+    const toml::array* sa = sn->as_array();
+    if (!sa) t.fail("starts", "must be an array of [x, y, z]");
+    if (int(sa->size()) != count)
+      t.fail("starts", "has " + std::to_string(sa->size()) + " entries, count = " + std::to_string(count));
+    for (int i = 0; i < count; ++i) {
+      p.starts.push_back(t.vec3_of(*sa->get(i), t.key("starts") + "." + std::to_string(i)));
+      p.directions.push_back(direction);
+      p.normals.push_back(normal);
+    }
+  } else {
+    g.ctx.fail(*kn, g.key("placement.kind"), "\"" + kind + "\" is not one of \"grid\", \"sphere\", \"list\"");
+  }
+  return p;
+}
+
+Section parse_section(const Table& g, double* width) {
+  const toml::node* n = g.get("section");
+  if (!n) g.missing("section");
+  if (!n->is_table()) g.fail("section", std::string("must be a table, got ") + type_name(*n));
+  const toml::table& st = *n->as_table();
+  const toml::node* sh = st.get("shape");
+  const std::string path = g.key("section");
+  if (!sh)
+    throw SceneError(g.ctx.where(st) + path +
+                     ".shape: missing (\"circle\", \"ellipse\", \"rectangle\" or \"hollow_circle\")");
+  if (!sh->is_string()) g.ctx.fail(*sh, path + ".shape", "must be a string");
+  const std::string shape = sh->as_string()->get();
+  if (shape == "circle") {
+    const Table t(g.ctx, st, path, {"shape", "radius"});
+    *width = 2 * t.positive("radius");
+    return Section::circle(t.positive("radius"));
+  }
+  if (shape == "ellipse") {
+    const Table t(g.ctx, st, path, {"shape", "semi_axes"});
+    const toml::node* a = t.get("semi_axes");
+    if (!a) t.missing("semi_axes", "[a, b] in m");
+    const toml::array* arr = a->as_array();
+    if (!arr || arr->size() != 2) t.fail("semi_axes", "must be an array of 2 numbers [a, b]");
+    double v[2];
+    for (int i = 0; i < 2; ++i) {
+      v[i] = t.as_number(*arr->get(i), t.key("semi_axes") + "." + std::to_string(i));
+      if (!(v[i] > 0))
+        g.ctx.fail(*arr->get(i), t.key("semi_axes") + "." + std::to_string(i),
+                   "must be > 0 (got " + num(v[i]) + ")");
+    }
+    *width = 2 * std::max(v[0], v[1]);
+    return Section::ellipse(v[0], v[1]);
+  }
+  if (shape == "rectangle") {
+    const Table t(g.ctx, st, path, {"shape", "width", "height"});
+    *width = std::max(t.positive("width"), t.positive("height"));
+    return Section::rectangle(t.positive("width"), t.positive("height"));
+  }
+  if (shape == "hollow_circle") {
+    const Table t(g.ctx, st, path, {"shape", "outer_radius", "inner_radius"});
+    const double ro = t.positive("outer_radius"), ri = t.non_negative("inner_radius");
+    if (!(ri < ro)) t.fail("inner_radius", "must be < outer_radius = " + num(ro) + " (got " + num(ri) + ")");
+    *width = 2 * ro;
+    return Section::hollow_circle(ro, ri);
+  }
+  g.ctx.fail(*sh, path + ".shape",
+             "\"" + shape + "\" is not one of \"circle\", \"ellipse\", \"rectangle\", \"hollow_circle\"");
+}
+
+Material parse_material(const Table& g) {
+  const Table t = g.sub("material", {"density", "youngs_modulus", "poisson_ratio", "shear_modulus"});
+  Material m;
+  m.density = t.positive("density");
+  m.youngs_modulus = t.positive("youngs_modulus");
+  if (t.has("poisson_ratio") && t.has("shear_modulus"))
+    t.fail("shear_modulus", "give poisson_ratio or shear_modulus, not both");
+  if (!t.has("poisson_ratio") && !t.has("shear_modulus"))
+    t.missing("poisson_ratio", "give poisson_ratio or shear_modulus");
+  if (t.has("poisson_ratio")) {
+    m.poisson_ratio = t.number("poisson_ratio");
+    if (!(m.poisson_ratio > -1 && m.poisson_ratio <= 0.5))
+      t.fail("poisson_ratio", "must be in (-1, 0.5] (got " + num(m.poisson_ratio) + ")");
+  } else {
+    m.shear_modulus = t.positive("shear_modulus");
+    const double nu = m.youngs_modulus / (2 * m.shear_modulus) - 1;
+    if (!(nu > -1 && nu <= 0.5))
+      t.fail("shear_modulus", "implies a Poisson ratio E/(2G) - 1 = " + num(nu) + " outside (-1, 0.5]");
+  }
+  return m;
+}
+
+Damping parse_damping(const Table& g) {
+  if (!g.has("damping")) return Damping::none();
+  const Table t =
+      g.sub("damping", {"tau_shear", "tau_bulk", "tau_extension", "shear_viscosity", "bulk_viscosity"});
+  const bool ts = t.has("tau_shear"), tb = t.has("tau_bulk"), te = t.has("tau_extension");
+  const bool eta = t.has("shear_viscosity"), zeta = t.has("bulk_viscosity");
+  const char* forms =
+      "give tau_shear with tau_bulk or tau_extension (s), or shear_viscosity with bulk_viscosity (Pa s)";
+  if (eta || zeta) {
+    if (ts || tb || te)
+      throw SceneError(g.ctx.where(t.t) + t.path + ": viscosities and retardation times given together; " +
+                       forms);
+    if (!eta) t.missing("shear_viscosity", forms);
+    if (!zeta) t.missing("bulk_viscosity", forms);
+    return Damping::viscosities(t.non_negative("shear_viscosity"), t.non_negative("bulk_viscosity"));
+  }
+  if (!ts) t.missing("tau_shear", forms);
+  if (tb == te) {
+    if (tb)
+      throw SceneError(g.ctx.where(t.t) + t.path + ": tau_bulk and tau_extension given together; " + forms);
+    t.missing("tau_extension", forms);
+  }
+  if (tb) return Damping::shear_bulk(t.non_negative("tau_shear"), t.non_negative("tau_bulk"));
+  return Damping::shear_extension(t.non_negative("tau_shear"), t.non_negative("tau_extension"));
+}
+
+// A rod whose material curvature is the constant U0 (1/m) at every joint:
+// Q_{e+1} = exp(−[U0 l]×) Q_e, x_{e+1} = x_e + l d3_e, so that the library's
+// discrete curvature −log(Q_{e+1} Q_eᵀ)/D̂ equals U0 and the rod is built
+// unstressed in that shape (a helix in general).
+RodSpec curved_rod(const Vec3& start, const Vec3& direction, const Vec3& normal, double length, int n,
+                   const Vec3& u0) {
+  const RodSpec straight = RodSpec::straight(start, direction, normal, length, n);
+  const double l = length / n;
+  Eigen::Matrix3d q;
+  for (int i = 0; i < 9; ++i) q(i / 3, i % 3) = straight.frames[0][i];
+  const E3 w = -to_e(u0) * l;
+  const Eigen::Matrix3d step = w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                                            : Eigen::Matrix3d::Identity();
+  std::vector<Vec3> nodes{start};
+  std::vector<Mat3> frames;
+  for (int e = 0; e < n; ++e) {
+    Mat3 f;
+    for (int i = 0; i < 9; ++i) f[i] = q(i / 3, i % 3);
+    frames.push_back(f);
+    const E3 d3 = q.row(2).transpose();
+    nodes.push_back(from_e(to_e(nodes.back()) + l * d3));
+    q = step * q;
+  }
+  return RodSpec::polyline(std::move(nodes), std::move(frames));
+}
+
+// Sets a numeric value at a dotted key path ("rods.0.damping.tau_extension",
+// "rods.1.tip_force.0"), creating the last key of a table if absent.
+void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
+  std::vector<std::string> parts;
+  std::stringstream ss(o.key);
+  for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
+  auto bad = [&](const std::string& msg) { throw SceneError(ctx.source + ": --vary " + o.key + ": " + msg); };
+  if (parts.size() < 2) bad("expected a key path like rods.0.damping.tau_extension");
+  if (parts[0] == "simulation")
+    bad("[simulation] keys cannot be varied (every variation shares one batch and one dt)");
+  if (parts[0] != "rods") bad("only rods.<group>.<key> paths can be varied");
+  toml::node* cur = &root;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const bool last = i + 1 == parts.size();
+    const std::string& p = parts[i];
+    if (toml::table* t = cur->as_table()) {
+      toml::node* next = t->get(p);
+      if (!next) {
+        if (!last) bad("no key '" + p + "' in the scene");
+        // keys the schema reads as integers get an integer when the value is whole
+        const bool integer_key = p == "count" || p == "elements" || p == "columns" || p == "seed";
+        if (integer_key && o.value == std::floor(o.value) && std::abs(o.value) < 9e18)
+          t->insert_or_assign(p, std::int64_t(o.value));
+        else
+          t->insert_or_assign(p, o.value);
+        ctx.overridden.insert(t->get(p));
+        return;
+      }
+      if (last) {
+        if (next->is_integer()) {
+          if (o.value != std::floor(o.value))
+            bad("'" + p + "' is an integer, value " + num(o.value) + " is not");
+          t->insert_or_assign(p, std::int64_t(o.value));
+        } else if (next->is_number()) {
+          t->insert_or_assign(p, o.value);
+        } else {
+          bad("'" + p + "' is " + type_name(*next) + ", not a number");
+        }
+        ctx.overridden.insert(t->get(p));
+        return;
+      }
+      cur = next;
+    } else if (toml::array* a = cur->as_array()) {
+      char* end = nullptr;
+      const long idx = std::strtol(p.c_str(), &end, 10);
+      if (*end || idx < 0 || idx >= long(a->size()))
+        bad("index '" + p + "' out of range (array has " + std::to_string(a->size()) + " entries)");
+      if (last) {
+        toml::node* e = a->get(std::size_t(idx));
+        if (!e->is_number()) bad("entry " + p + " is " + type_name(*e) + ", not a number");
+        if (e->is_integer()) {
+          if (o.value != std::floor(o.value))
+            bad("entry " + p + " is an integer, value " + num(o.value) + " is not");
+          a->replace(a->cbegin() + idx, std::int64_t(o.value));
+        } else {
+          a->replace(a->cbegin() + idx, o.value);
+        }
+        ctx.overridden.insert(a->get(std::size_t(idx)));
+        return;
+      }
+      cur = a->get(std::size_t(idx));
+    } else {
+      bad("'" + parts[i - 1] + "' is not a table or array");
+    }
+  }
+}
+
+std::uint64_t bytes_for(std::int64_t slots, std::int64_t elements, Precision p) {
+  // Model 28 arrays, State 18, Scratch 12 (+ int flags), Loads 6, implicit
+  // viscous workspace 42 (include/manyrods/batch.h), per slot; plus the
+  // double-precision RodSpec (nodes, frames) while building.
+  const std::uint64_t t = p == Precision::float32 ? 4 : 8;
+  return std::uint64_t(slots) * (106 * t + 4) + std::uint64_t(elements) * 128;
+}
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::string& source, const std::vector<Override>& overrides) {
+  Ctx ctx{source, {}};
+  toml::table root;
+  try {
+    root = toml::parse(text, source);
+  } catch (const toml::parse_error& e) {
+    const auto& b = e.source().begin;
+    throw SceneError(source + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) +
+                     ": TOML syntax error: " + std::string(e.description()));
+  }
+  for (const Override& o : overrides) apply_override(root, o, ctx);
+
+  Scene sc;
+  sc.source = source;
+  sc.text = std::string(text);
+  const Table top(ctx, root, "", {"title", "simulation", "rods"});
+  if (top.has("title")) (void)top.text("title");
+  if (!top.has("simulation")) throw SceneError(source + ": simulation: missing table [simulation]");
+  sc.sim = parse_simulation(top);
+
+  const toml::node* rn = top.get("rods");
+  if (!rn) throw SceneError(source + ": rods: missing (at least one [[rods]] group)");
+  const toml::array* groups = rn->as_array();
+  if (!groups || groups->empty() || !groups->is_array_of_tables())
+    ctx.fail(*rn, "rods", "must be one or more [[rods]] tables");
+
+  struct Pending {
+    RodGroup g;
+    Placement place;
+    double length;
+    int elements;
+    Vec3 u0;
+    bool curved, clamped;
+    double scale;
+    Section section;
+    Material material;
+    Damping damping;
+    const toml::table* table;
+    const toml::node* gravity_node = nullptr;
+  };
+  // Memory and index range before anything large is allocated.
+  auto check_size = [&](std::int64_t slots, std::int64_t elements) {
+    if (slots + 64 > std::int64_t(std::numeric_limits<int>::max()))
+      throw SceneError(source + ": the scene has " + std::to_string(elements) +
+                       " elements in all; a batch holds at most about 2.1e9 slots (int index)");
+    const std::uint64_t need = bytes_for(slots, elements, sc.sim.precision);
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
+      throw SceneError(source + ": the scene needs about " + num(double(need) / 1e9) + " GB (" +
+                       std::to_string(elements) + " elements), more than this machine's " +
+                       num(double(pages) * double(page) / 1e9) + " GB of memory");
+  };
+  std::vector<Pending> pending;
+  std::int64_t slots = 0, elements = 0;
+  for (std::size_t gi = 0; gi < groups->size(); ++gi) {
+    const toml::table& gt = *groups->get(gi)->as_table();
+    const Table g(ctx, gt, "rods." + std::to_string(gi),
+                  {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
+                   "section", "material", "damping", "rest_curvature", "root", "tip_force",
+                   "initial_tip_force", "terms", "shear_stretch_scale"});
+    Pending p;
+    p.table = &gt;
+    p.g.name = g.has("name") ? g.text("name") : "rods." + std::to_string(gi);
+    p.g.line = int(gt.source().begin.line);
+    p.g.count = int(g.has("count") ? g.integer("count", 1, std::numeric_limits<int>::max()) : 1);
+    p.elements = int(g.integer("elements", 1, 1 << 30));
+    p.length = g.positive("length");
+    const Vec3 start = g.vec3("start", {0, 0, 0});
+    const Vec3 direction = g.nonzero_vec3("direction", {0, 0, 1});
+    const Vec3 normal = g.nonzero_vec3("normal", {1, 0, 0});
+    if (to_e(direction).normalized().cross(to_e(normal).normalized()).norm() < 1e-9)
+      g.fail(g.has("normal") ? "normal" : "direction", "normal must not be parallel to direction");
+    p.section = parse_section(g, &p.g.width);
+    p.material = parse_material(g);
+    p.damping = parse_damping(g);
+    p.u0 = g.vec3("rest_curvature", {0, 0, 0});
+    p.curved = to_e(p.u0).norm() > 0;
+    if (g.has("root")) {
+      const toml::node* r = g.get("root");
+      if (r->is_string() && r->as_string()->get() == "driven")
+        g.fail("root", "driven roots are not supported yet (use \"clamped\" or \"free\")");
+      p.clamped = g.string("root", {"clamped", "free"}) == "clamped";
+    } else {
+      p.clamped = true;
+    }
+    p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
+    if (g.has("initial_tip_force")) {
+      if (!p.clamped)
+        g.fail("initial_tip_force",
+               "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
+      p.g.has_initial_tip_force = true;
+      p.g.initial_tip_force = g.vec3("initial_tip_force");
+    }
+    p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
+    if (g.has("terms")) {
+      const Table t = g.sub("terms", {"shear", "stretch", "bend", "twist", "kelvin_voigt", "gravity"});
+      p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true),      t.boolean("bend", true),
+                   t.boolean("twist", true), t.boolean("kelvin_voigt", true), t.boolean("gravity", true)};
+      if (t.has("gravity")) p.gravity_node = t.get("gravity");
+    }
+    // resolve material and damping now, so that a library InputError names this group
+    try {
+      const ElasticConstants c = resolve_material(p.material);
+      (void)section_properties(p.section, c.nu);
+      (void)resolve_damping(p.damping, c);
+    } catch (const InputError& e) {
+      const char* k = g.has("damping") ? "damping" : "material";
+      g.fail(k, e.what());
+    }
+    slots += std::int64_t(p.g.count) * (p.elements + 2);
+    elements += std::int64_t(p.g.count) * p.elements;
+    check_size(slots, elements);  // before the placement allocates per-rod vectors
+    p.place = parse_placement(g, p.g.count, start, direction, normal);
+    pending.push_back(std::move(p));
+  }
+  // all groups must agree on the gravity switch (checked above for explicit keys)
+  for (std::size_t i = 1; i < pending.size(); ++i)
+    if (pending[i].g.terms.gravity != pending[0].g.terms.gravity) {
+      const std::string msg = "differs from rods.0: gravity is one compile-time switch for the whole batch";
+      if (pending[i].gravity_node)
+        ctx.fail(*pending[i].gravity_node, "rods." + std::to_string(i) + ".terms.gravity", msg);
+      throw SceneError(source + ":" + std::to_string(pending[i].g.line) + ": rods." + std::to_string(i) +
+                       ".terms.gravity: " + msg);
+    }
+
+  for (std::size_t gi = 0; gi < pending.size(); ++gi) {
+    Pending& p = pending[gi];
+    p.g.first_rod = int(sc.rods.size());
+    for (int i = 0; i < p.g.count; ++i) {
+      RodSpec r;
+      try {
+        r = p.curved ? curved_rod(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length,
+                                  p.elements, p.u0)
+                     : RodSpec::straight(p.place.starts[i], p.place.directions[i], p.place.normals[i],
+                                         p.length, p.elements);
+      } catch (const InputError& e) {
+        throw SceneError(source + ":" + std::to_string(p.g.line) + ": rods." + std::to_string(gi) + " rod " +
+                         std::to_string(i) + ": " + e.what());
+      }
+      r.name = p.g.name + "[" + std::to_string(i) + "]";
+      r.section = p.section;
+      r.material = p.material;
+      r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
+      r.shear_stretch_scale = p.scale;
+      r.clamped_root = p.clamped;
+      sc.rods.push_back(std::move(r));
+      sc.rod_group.push_back(int(gi));
+    }
+    sc.groups.push_back(p.g);
+  }
+  return sc;
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(path + ": cannot read the scene file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scene(ss.str(), path);
+}
+
+std::uint64_t estimated_batch_bytes(const Scene& s) {
+  std::int64_t slots = 0, elements = 0;
+  for (const RodSpec& r : s.rods) {
+    slots += r.elements() + 2;
+    elements += r.elements();
+  }
+  return bytes_for(slots, elements, s.sim.precision);
+}
+
+void check_batch_size(const Scene& s) {
+  const std::uint64_t need = estimated_batch_bytes(s);
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
+    throw SceneError(s.source + ": the batch needs about " + num(double(need) / 1e9) +
+                     " GB, more than this machine's " + num(double(pages) * double(page) / 1e9) +
+                     " GB of memory");
+}
+
+}  // namespace manyrods::scene

@@ -1,0 +1,213 @@
+// host/scene_run.cpp — building and stepping a scene's batch (host/scene_run.h).
+#include "host/scene_run.h"
+
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "manyrods/statics.h"
+
+namespace manyrods::scene {
+namespace {
+
+template <bool kKV, bool kGravity>
+constexpr Terms terms_of() {
+  Terms t;
+  t.kelvin_voigt = kKV;
+  t.gravity = kGravity;
+  return t;
+}
+
+// Calls f.template operator()<kT>() with the Terms the choice selects.
+template <class F>
+decltype(auto) with_terms(const StepChoice& c, F&& f) {
+  if (c.kelvin_voigt) {
+    if (c.gravity) return f.template operator()<terms_of<true, true>()>();
+    return f.template operator()<terms_of<true, false>()>();
+  }
+  if (c.gravity) return f.template operator()<terms_of<false, true>()>();
+  return f.template operator()<terms_of<false, false>()>();
+}
+
+// Zeroes the stiffness of the terms a group switches off (see the header).
+template <class T>
+void apply_term_switches(RodBatch<T>& b, int rod, const TermSwitches& t) {
+  const int n = b.elements(rod);
+  for (int e = 0; e < n; ++e) {
+    const int k = b.elem_index(rod, e);
+    if (!t.shear) b.model.elem_stiffness[0][k] = b.model.elem_stiffness[1][k] = T(0);
+    if (!t.stretch) b.model.elem_stiffness[2][k] = T(0);
+  }
+  for (int j = -1; j + 1 < n; ++j) {
+    const int k = j < 0 ? b.root_vor_index(rod) : b.vor_index(rod, j);
+    if (!t.bend) b.model.vor_stiffness[0][k] = b.model.vor_stiffness[1][k] = T(0);
+    if (!t.twist) b.model.vor_stiffness[2][k] = T(0);
+  }
+}
+
+std::string static_key(const RodSpec& r, const RodGroup& g, const Vec3& gravity) {
+  std::ostringstream os;
+  os.precision(17);
+  auto v3 = [&](const Vec3& v) { os << v[0] << ',' << v[1] << ',' << v[2] << ';'; };
+  for (const Vec3& x : r.nodes) v3(x);
+  for (const Mat3& q : r.frames)
+    for (double x : q) os << x << ',';
+  os << int(r.section.shape) << ',' << r.section.a << ',' << r.section.b << ',' << r.material.density << ','
+     << r.material.youngs_modulus << ',' << r.material.poisson_ratio << ',' << r.material.shear_modulus << ','
+     << r.shear_stretch_scale << ',' << r.clamped_root << ';';
+  const TermSwitches& t = g.terms;
+  os << t.shear << t.stretch << t.bend << t.twist << t.gravity << ';';
+  v3(g.initial_tip_force);
+  v3(g.tip_force);
+  v3(gravity);
+  return os.str();
+}
+
+}  // namespace
+
+StepChoice step_choice(const Scene& s) {
+  StepChoice c;
+  c.integrator = s.sim.integrator;
+  for (std::size_t i = 0; i < s.rods.size(); ++i)
+    if (s.groups[s.rod_group[i]].terms.kelvin_voigt && s.rods[i].damping.form != Damping::Form::none) {
+      // a damping form with all-zero parameters is still "off"
+      if (s.rods[i].damping.p1 != 0 || s.rods[i].damping.p2 != 0) c.kelvin_voigt = true;
+    }
+  const Vec3& g = s.sim.gravity;
+  c.gravity = !s.groups.empty() && s.groups[0].terms.gravity && (g[0] != 0 || g[1] != 0 || g[2] != 0);
+  return c;
+}
+
+template <class T>
+RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
+  check_batch_size(s);
+  const StepChoice choice = step_choice(s);
+  RodBatch<T> b;
+  try {
+    b = build_batch<T>(s.rods, s.sim.gravity);
+  } catch (const InputError& e) {
+    throw SceneError(s.source + ": " + e.what());
+  } catch (const std::bad_alloc&) {
+    throw SceneError(s.source + ": out of memory building the batch (about " +
+                     std::to_string(estimated_batch_bytes(s) / 1000000) + " MB estimated)");
+  }
+  for (int r = 0; r < b.rod_count(); ++r) {
+    const RodGroup& g = s.groups[s.rod_group[r]];
+    apply_term_switches(b, r, g.terms);
+    if (g.tip_force != Vec3{0, 0, 0}) b.set_node_force(r, b.elements(r), g.tip_force);
+  }
+  if (!initial_state) return b;
+  std::map<std::string, RodBatch<double>> solved;
+  for (int r = 0; r < b.rod_count(); ++r) {
+    const RodGroup& g = s.groups[s.rod_group[r]];
+    if (!g.has_initial_tip_force) continue;
+    const std::string key = static_key(s.rods[r], g, s.sim.gravity);
+    auto it = solved.find(key);
+    if (it == solved.end()) {
+      RodBatch<double> one = build_batch<double>({s.rods[r]}, s.sim.gravity);
+      apply_term_switches(one, 0, g.terms);
+      const int n = one.elements(0);
+      Vec3 f;
+      for (int a = 0; a < 3; ++a) f[a] = g.initial_tip_force[a] + g.tip_force[a];
+      one.set_node_force(0, n, f);
+      const StaticResult res = choice.gravity ? solve_static<terms_of<false, true>()>(one)
+                                              : solve_static<terms_of<false, false>()>(one);
+      if (!res.converged)
+        throw SceneError(s.source + ":" + std::to_string(g.line) + ": " + g.name +
+                         ": the static equilibrium under initial_tip_force did not converge");
+      it = solved.emplace(key, std::move(one)).first;
+    }
+    const RodBatch<double>& one = it->second;
+    const int n = b.elements(r);
+    for (int j = 0; j <= n; ++j)
+      for (int a = 0; a < 3; ++a)
+        b.state.node_x[a][b.node_index(r, j)] = T(one.state.node_x[a][one.node_index(0, j)]);
+    for (int e = 0; e < n; ++e)
+      for (int i = 0; i < 9; ++i)
+        b.state.elem_Q[i][b.elem_index(r, e)] = T(one.state.elem_Q[i][one.elem_index(0, e)]);
+    // the tip ghost element holds a copy of the last frame (batch.h)
+    for (int i = 0; i < 9; ++i)
+      b.state.elem_Q[i][b.elem_index(r, n)] = T(one.state.elem_Q[i][one.elem_index(0, n)]);
+  }
+  return b;
+}
+
+template <class T>
+double scene_dt(const Scene& s, const RodBatch<T>& b) {
+  if (!s.sim.dt_auto) return s.sim.dt;
+  const StepChoice c = step_choice(s);
+  const StableDt sd = with_terms(c, [&]<Terms kT>() { return stable_dt<kT>(b); });
+  if (!std::isfinite(sd.elastic) || !(sd.elastic > 0))
+    throw SceneError(s.source +
+                     ": dt = \"auto\": stable_dt gives no finite step (no stiffness?); give dt in seconds");
+  return sd.elastic * s.sim.dt_safety;
+}
+
+template <class T>
+void advance_scene(RodBatch<T>& b, const StepChoice& c, T dt, std::int64_t steps, const Exec& ex) {
+  with_terms(c, [&]<Terms kT>() {
+    if (c.integrator == Integrator::pefrl)
+      advance<kT, Viscous::implicit, Integrator::pefrl>(b, dt, steps, ex);
+    else
+      advance<kT, Viscous::implicit, Integrator::position_verlet>(b, dt, steps, ex);
+  });
+}
+
+template <class T>
+Energies scene_energies(const RodBatch<T>& b, const StepChoice& c, int rod) {
+  return with_terms(c, [&]<Terms kT>() { return energies<kT>(b, rod); });
+}
+
+template <class T>
+double max_strain(const RodBatch<T>& b, int rod, double width) {
+  const ModelView<T> m = b.model_view();
+  const ConstStateView<T> s = b.state_view();
+  double worst = 0;
+  auto take = [&](double v) {
+    if (!(v <= worst)) worst = v;  // NaN propagates
+  };
+  const int n = b.elements(rod);
+  for (int e = 0; e < n; ++e) {
+    const vec3<T> sigma = element_strain(b.elem_index(rod, e), m, s).sigma;
+    take(std::sqrt(double(dot(sigma, sigma))));
+  }
+  for (int j = 0; j + 1 < n; ++j) {
+    const int k = b.vor_index(rod, j);
+    const vec3<T> dk = voronoi_strain(k, m, s).kappa - load3(m.vor_rest_curvature, k);
+    take(std::sqrt(double(dot(dk, dk))) * width / 2);
+  }
+  return worst;
+}
+
+template <class T>
+void gather_positions(const RodBatch<T>& b, std::vector<T>& out) {
+  out.clear();
+  for (int r = 0; r < b.rod_count(); ++r)
+    for (int j = 0; j <= b.elements(r); ++j) {
+      const int k = b.node_index(r, j);
+      for (int a = 0; a < 3; ++a) out.push_back(b.state.node_x[a][k]);
+    }
+}
+
+template <class T>
+void gather_directors(const RodBatch<T>& b, std::vector<T>& out) {
+  out.clear();
+  for (int r = 0; r < b.rod_count(); ++r)
+    for (int e = 0; e < b.elements(r); ++e) {
+      const int k = b.elem_index(r, e);
+      for (int i = 0; i < 9; ++i) out.push_back(b.state.elem_Q[i][k]);
+    }
+}
+
+#define MANYRODS_SCENE_INSTANTIATE(T)                                                            \
+  template RodBatch<T> build_scene_batch<T>(const Scene&, bool);                                 \
+  template double scene_dt<T>(const Scene&, const RodBatch<T>&);                                 \
+  template void advance_scene<T>(RodBatch<T>&, const StepChoice&, T, std::int64_t, const Exec&); \
+  template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);               \
+  template double max_strain<T>(const RodBatch<T>&, int, double);                                \
+  template void gather_positions<T>(const RodBatch<T>&, std::vector<T>&);                        \
+  template void gather_directors<T>(const RodBatch<T>&, std::vector<T>&);
+MANYRODS_SCENE_INSTANTIATE(float)
+MANYRODS_SCENE_INSTANTIATE(double)
+
+}  // namespace manyrods::scene

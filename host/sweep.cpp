@@ -1,0 +1,295 @@
+// host/sweep.cpp — parameter sweeps (host/sweep.h).
+#include "host/sweep.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+namespace manyrods::scene {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double parse_number(const std::string& s, const std::string& arg) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(s, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != s.size() || !std::isfinite(v))
+    throw SceneError("--vary " + arg + ": '" + s + "' is not a finite number");
+  return v;
+}
+
+std::vector<std::string> split(const std::string& s, char c) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string p; std::getline(ss, p, c);) out.push_back(p);
+  if (!s.empty() && s.back() == c) out.push_back("");
+  return out;
+}
+
+// splitmix64, as in host/scene.cpp: the same numbers on every platform.
+struct Rng {
+  std::uint64_t s;
+  double next() {
+    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return double(z >> 11) * 0x1.0p-53;
+  }
+};
+
+struct Extremum {
+  double t, u;
+};
+
+// Vertex of the parabola through (i−1, i, i+1).
+Extremum refine(const std::vector<double>& t, const std::vector<double>& u, std::size_t i) {
+  const double h = 0.5 * (t[i + 1] - t[i - 1]);
+  const double c2 = 0.5 * (u[i - 1] - 2 * u[i] + u[i + 1]), c1 = 0.5 * (u[i + 1] - u[i - 1]);
+  if (c2 == 0) return {t[i], u[i]};
+  const double off = std::clamp(-c1 / (2 * c2), -1.0, 1.0);
+  return {t[i] + off * h, u[i] - c1 * c1 / (4 * c2)};
+}
+
+}  // namespace
+
+Vary parse_vary(const std::string& arg) {
+  const std::size_t eq = arg.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == arg.size())
+    throw SceneError("--vary " + arg + ": expected KEY=lo:hi:n, KEY=lo:hi, KEY=v1,v2,... or KEY=v");
+  Vary v;
+  v.key = arg.substr(0, eq);
+  const std::string spec = arg.substr(eq + 1);
+  if (spec.find(':') != std::string::npos) {
+    const auto p = split(spec, ':');
+    if (p.size() != 2 && p.size() != 3) throw SceneError("--vary " + arg + ": a range is lo:hi or lo:hi:n");
+    v.lo = parse_number(p[0], arg);
+    v.hi = parse_number(p[1], arg);
+    if (p.size() == 3) {
+      const double n = parse_number(p[2], arg);
+      if (n != std::floor(n) || n < 1 || n > 1e7)
+        throw SceneError("--vary " + arg + ": n must be a whole number >= 1");
+      v.count = int(n);
+      if (v.count == 1 && v.lo != v.hi)
+        throw SceneError("--vary " + arg + ": one value over a range; give n >= 2 or a single value");
+    }
+  } else {
+    for (const std::string& s : split(spec, ',')) v.values.push_back(parse_number(s, arg));
+  }
+  return v;
+}
+
+std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int samples,
+                                              std::uint64_t seed) {
+  std::vector<std::vector<double>> pts;
+  if (vary.empty()) throw SceneError("sweep: give at least one --vary");
+  if (samples > 0) {
+    Rng rng{seed};
+    for (int i = 0; i < samples; ++i) {
+      std::vector<double> row;
+      for (const Vary& v : vary) {
+        if (!v.values.empty()) {
+          row.push_back(
+              v.values[std::min(v.values.size() - 1, std::size_t(rng.next() * double(v.values.size())))]);
+        } else {
+          row.push_back(v.lo + (v.hi - v.lo) * rng.next());
+        }
+      }
+      pts.push_back(std::move(row));
+    }
+    return pts;
+  }
+  std::vector<std::vector<double>> lists;
+  for (const Vary& v : vary) {
+    if (!v.values.empty()) {
+      lists.push_back(v.values);
+    } else {
+      if (v.count == 0)
+        throw SceneError("--vary " + v.key + "=" + std::to_string(v.lo) + ":" + std::to_string(v.hi) +
+                         ": a range without n needs --samples N (random sampling)");
+      std::vector<double> l;
+      for (int i = 0; i < v.count; ++i)
+        l.push_back(v.count == 1 ? v.lo : v.lo + (v.hi - v.lo) * double(i) / double(v.count - 1));
+      lists.push_back(std::move(l));
+    }
+  }
+  std::size_t total = 1;
+  for (const auto& l : lists) {
+    total *= l.size();
+    if (total > 10'000'000) throw SceneError("sweep: more than 10 million variations");
+  }
+  for (std::size_t i = 0; i < total; ++i) {
+    std::vector<double> row(lists.size());
+    std::size_t k = i;
+    for (std::size_t d = lists.size(); d-- > 0;) {  // the last --vary varies fastest
+      row[d] = lists[d][k % lists[d].size()];
+      k /= lists[d].size();
+    }
+    pts.push_back(std::move(row));
+  }
+  return pts;
+}
+
+Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
+                 int samples, std::uint64_t seed) {
+  Sweep sw;
+  for (const Vary& v : vary) sw.names.push_back(v.key);
+  sw.points = sweep_points(vary, samples, seed);
+  sw.scene.source = source;
+  sw.scene.text = text;
+  sw.first_rod.push_back(0);
+  for (std::size_t i = 0; i < sw.points.size(); ++i) {
+    std::vector<Override> ov;
+    for (std::size_t d = 0; d < vary.size(); ++d) ov.push_back({vary[d].key, sw.points[i][d]});
+    Scene s;
+    try {
+      s = parse_scene(text, source, ov);
+    } catch (const SceneError& e) {
+      std::ostringstream os;
+      os.precision(10);
+      os << e.what() << " (variation " << i << ":";
+      for (std::size_t d = 0; d < vary.size(); ++d) os << " " << vary[d].key << "=" << sw.points[i][d];
+      os << ")";
+      throw SceneError(os.str());
+    }
+    if (i == 0) sw.scene.sim = s.sim;
+    const int group0 = int(sw.scene.groups.size()), rod0 = int(sw.scene.rods.size());
+    std::string suffix = std::to_string(i);
+    suffix.insert(suffix.begin(), '@');  // not "@" + …: GCC 12 false -Wrestrict (bug 105329)
+    for (RodGroup g : s.groups) {
+      g.first_rod += rod0;
+      g.name.append(suffix);
+      sw.scene.groups.push_back(g);
+    }
+    for (std::size_t r = 0; r < s.rods.size(); ++r) {
+      s.rods[r].name.append(suffix);
+      sw.scene.rods.push_back(std::move(s.rods[r]));
+      sw.scene.rod_group.push_back(group0 + s.rod_group[r]);
+    }
+    sw.first_rod.push_back(int(sw.scene.rods.size()));
+    sw.probes.push_back({rod0, rod0, int(sw.scene.rods.size())});
+    if (sw.scene.rods.size() > std::size_t(std::numeric_limits<int>::max() / 2))
+      throw SceneError(source + ": the sweep has too many rods");
+  }
+  check_batch_size(sw.scene);
+  return sw;
+}
+
+Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<double>& u) {
+  std::vector<Extremum> maxima, minima;
+  for (std::size_t i = 1; i + 1 < u.size(); ++i) {
+    if (u[i] > u[i - 1] && u[i] >= u[i + 1]) maxima.push_back(refine(t, u, i));
+    if (u[i] < u[i - 1] && u[i] <= u[i + 1]) minima.push_back(refine(t, u, i));
+  }
+  // peak-to-peak amplitude of each maximum with the minimum that follows it
+  std::vector<Extremum> pp;
+  std::size_t j = 0;
+  for (const Extremum& m : maxima) {
+    while (j < minima.size() && minima[j].t <= m.t) ++j;
+    if (j == minima.size()) break;
+    pp.push_back({m.t, m.u - minima[j].u});
+  }
+  Oscillation o{kNaN, kNaN, 0};
+  std::size_t last = 0;
+  while (last + 1 < pp.size() && pp[last + 1].u > 0.01 * pp[0].u) ++last;
+  if (pp.size() < 2 || last == 0) return o;
+  o.cycles = int(last);
+  o.period = (pp[last].t - pp[0].t) / double(last);
+  const double delta = std::log(pp[0].u / pp[last].u) / double(last);
+  o.damping_ratio = delta / std::sqrt(4 * std::numbers::pi * std::numbers::pi + delta * delta);
+  return o;
+}
+
+std::vector<h5::Column> sweep_parameters(const Sweep& sw) {
+  std::vector<h5::Column> cols;
+  for (std::size_t d = 0; d < sw.names.size(); ++d) {
+    h5::Column c{sw.names[d], {}};
+    for (const auto& p : sw.points) c.values.push_back(p[d]);
+    cols.push_back(std::move(c));
+  }
+  return cols;
+}
+
+std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec) {
+  std::vector<h5::Column> c = {{"tip_deflection_initial_m", {}},
+                               {"tip_deflection_max_m", {}},
+                               {"tip_deflection_final_m", {}},
+                               {"period_s", {}},
+                               {"damping_ratio", {}},
+                               {"cycles", {}},
+                               {"energy_final_J", {}},
+                               {"dissipated_J", {}},
+                               {"max_strain", {}}};
+  for (std::size_t i = 0; i < rec.size(); ++i) {
+    const ProbeRecord& r = rec[i];
+    const Vec3 rest = sw.scene.rods[sw.probes[i].tip_rod].nodes.back();
+    auto dist = [](const Vec3& a, const Vec3& b) {
+      return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                       (a[2] - b[2]) * (a[2] - b[2]));
+    };
+    double dmax = 0;
+    for (const Vec3& x : r.tip) dmax = std::max(dmax, dist(x, rest));
+    // oscillation of the tip about its final position, along the initial offset
+    // (or, when it starts there, along its largest excursion)
+    const Vec3& end = r.tip.back();
+    Vec3 far = r.tip.front();
+    if (dist(far, end) == 0)
+      for (const Vec3& x : r.tip)
+        if (dist(x, end) > dist(far, end)) far = x;
+    const Vec3 dir{far[0] - end[0], far[1] - end[1], far[2] - end[2]};
+    const double nd = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    Oscillation o{kNaN, kNaN, 0};
+    if (nd > 0) {
+      std::vector<double> u;
+      for (const Vec3& x : r.tip)
+        u.push_back(((x[0] - end[0]) * dir[0] + (x[1] - end[1]) * dir[1] + (x[2] - end[2]) * dir[2]) / nd);
+      o = analyse_oscillation(r.time, u);
+    }
+    c[0].values.push_back(dist(r.tip.front(), rest));
+    c[1].values.push_back(dmax);
+    c[2].values.push_back(dist(r.tip.back(), rest));
+    c[3].values.push_back(o.period);
+    c[4].values.push_back(o.damping_ratio);
+    c[5].values.push_back(o.cycles);
+    c[6].values.push_back(r.final_energy.total());
+    c[7].values.push_back(r.dissipated);
+    c[8].values.push_back(r.max_strain);
+  }
+  return c;
+}
+
+void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
+               const std::vector<h5::Column>& summary) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    if (!out) throw SceneError(path + ": cannot write the CSV file");
+    out.precision(10);
+    out << "variation";
+    for (const auto* cols : {&parameters, &summary})
+      for (const h5::Column& c : *cols) out << ',' << c.name;
+    out << '\n';
+    const std::size_t n = parameters.empty() ? 0 : parameters[0].values.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      out << i;
+      for (const auto* cols : {&parameters, &summary})
+        for (const h5::Column& c : *cols) out << ',' << c.values[i];
+      out << '\n';
+    }
+    if (!out) throw SceneError(path + ": error writing the CSV file");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw SceneError(path + ": cannot rename " + tmp + " to it: " + ec.message());
+}
+
+}  // namespace manyrods::scene

@@ -1,0 +1,354 @@
+// tests/test_scene.cpp — TOML scenes (host/scene.h, docs/scenes.md): the
+// example scenes load into the rods they describe, every kind of bad input
+// is an error naming file, line, column and key, term switches and rest
+// curvature do what the docs say, and --vary overrides reach the rods.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "cases.h"
+#include "host/scene.h"
+#include "host/scene_run.h"
+#include "manyrods/statics.h"
+
+using namespace manyrods;
+using namespace manyrods::scene;
+
+namespace {
+
+const std::string kScenes = MANYRODS_SCENES;
+
+// A valid one-group scene; `rods_extra` is appended inside [[rods]] (after
+// line 12), `sim_extra` inside [simulation] (after line 3).
+std::string scene_text(const std::string& rods_extra = "", const std::string& sim_extra = "") {
+  return "[simulation]\n"       // 1
+         "dt = 1e-4\n"          // 2
+         "duration = 0.01\n" +  // 3
+         sim_extra +
+         "\n"
+         "[[rods]]\n"
+         "name = \"beam\"\n"
+         "elements = 6\n"
+         "length = 0.3\n"
+         "section = { shape = \"rectangle\", width = 0.01, height = 0.01 }\n"
+         "material = { density = 1000.0, youngs_modulus = 1.0e6, poisson_ratio = 0.3 }\n"
+         "damping = { tau_shear = 0.01, tau_extension = 0.02 }\n" +
+         rods_extra;
+}
+
+// Parses `text` as "bad.toml" and expects a SceneError containing every needle.
+void expect_error(const std::string& text, const std::vector<std::string>& needles,
+                  const std::vector<Override>& ov = {}) {
+  try {
+    (void)parse_scene(text, "bad.toml", ov);
+    ADD_FAILURE() << "no SceneError for:\n" << text;
+  } catch (const SceneError& e) {
+    const std::string msg = e.what();
+    for (const std::string& n : needles)
+      EXPECT_NE(msg.find(n), std::string::npos) << "'" << n << "' not in: " << msg;
+  }
+}
+
+double norm(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+}  // namespace
+
+TEST(Scene, SeedCantileverExampleMatchesTheApiRod) {
+  const Scene s = load_scene(kScenes + "/seed_cantilever.toml");
+  ASSERT_EQ(s.rods.size(), 1u);
+  const RodSpec& r = s.rods[0];
+  const RodSpec ref = cases::seed_cantilever(50, Damping::shear_extension(0.02, 0.02));
+  EXPECT_EQ(r.elements(), 50);
+  EXPECT_TRUE(r.clamped_root);
+  EXPECT_EQ(r.section.shape, Shape::rectangle);
+  EXPECT_EQ(r.section.a, ref.section.a);
+  EXPECT_EQ(r.material.youngs_modulus, ref.material.youngs_modulus);
+  EXPECT_EQ(r.material.density, ref.material.density);
+  EXPECT_EQ(r.material.poisson_ratio, ref.material.poisson_ratio);
+  EXPECT_EQ(r.damping.form, Damping::Form::shear_extension);
+  EXPECT_EQ(r.damping.p1, 0.02);
+  EXPECT_EQ(r.damping.p2, 0.02);
+  for (int j = 0; j <= 50; ++j)
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(r.nodes[j][a], ref.nodes[j][a], 1e-15);
+  EXPECT_TRUE(s.sim.dt_auto);
+  EXPECT_EQ(s.sim.duration, 30.0);
+  EXPECT_TRUE(s.groups[0].has_initial_tip_force);
+
+  // The initial state is the static equilibrium under the tip force, the
+  // same as solve_static on the API rod (CASES 1b style set-up).
+  const RodBatch<double> b = build_scene_batch<double>(s);
+  RodBatch<double> api = build_batch<double>({ref});
+  api.set_node_force(0, 50, {0.05, 0, 0});
+  ASSERT_TRUE(solve_static(api).converged);
+  for (int j = 0; j <= 50; ++j)
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(b.position(0, j)[a], api.position(0, j)[a], 1e-12);
+  EXPECT_GT(b.position(0, 50)[0], 0.1);  // really deflected
+  // released: no load remains on the tip
+  EXPECT_EQ(b.loads.node_force[0][b.node_index(0, 50)], 0.0);
+}
+
+TEST(Scene, HairGroomRootsLieOnTheScalpAndGrowOutward) {
+  const Scene s = load_scene(kScenes + "/hair_groom.toml");
+  ASSERT_EQ(s.groups.size(), 1u);
+  ASSERT_EQ(int(s.rods.size()), s.groups[0].count);
+  EXPECT_EQ(s.sim.precision, Precision::float32);
+  const double cap = std::cos(70.0 * std::numbers::pi / 180);
+  for (const RodSpec& r : s.rods) {
+    const Vec3& x0 = r.nodes[0];
+    EXPECT_NEAR(norm(x0), 0.09, 1e-12);    // on the sphere (center 0)
+    EXPECT_GE(x0[2] / 0.09, cap - 1e-12);  // inside the 70° cap around +z
+    const Mat3& q = r.frames[0];           // d3 = row 2 = outward normal
+    EXPECT_NEAR(q[6] * x0[0] + q[7] * x0[1] + q[8] * x0[2], 0.09, 1e-9);
+    EXPECT_EQ(r.section.a, 40e-6);
+    EXPECT_TRUE(r.clamped_root);
+  }
+  // scattered, not stacked: distinct roots
+  EXPECT_GT(
+      norm({s.rods[0].nodes[0][0] - s.rods[1].nodes[0][0], s.rods[0].nodes[0][1] - s.rods[1].nodes[0][1],
+            s.rods[0].nodes[0][2] - s.rods[1].nodes[0][2]}),
+      1e-4);
+}
+
+TEST(Scene, CableBundleIsAGrid) {
+  const Scene s = load_scene(kScenes + "/cable_bundle.toml");
+  ASSERT_EQ(s.rods.size(), 16u);
+  for (int i = 0; i < 16; ++i) {
+    const Vec3& x0 = s.rods[i].nodes[0];
+    EXPECT_NEAR(x0[0], 0, 1e-15);
+    EXPECT_NEAR(x0[1], 0.02 * (i % 4), 1e-15);  // axes = [[0,1,0],[0,0,1]], columns = 4
+    EXPECT_NEAR(x0[2], 0.02 * (i / 4), 1e-15);
+    EXPECT_NEAR(s.rods[i].nodes.back()[0], 1.0, 1e-12);  // along +x, length 1
+  }
+  EXPECT_EQ(s.rods[0].section.shape, Shape::hollow_circle);
+  EXPECT_EQ(s.rods[0].damping.form, Damping::Form::viscosities);
+  EXPECT_TRUE(step_choice(s).gravity);
+  EXPECT_TRUE(step_choice(s).kelvin_voigt);
+}
+
+TEST(Scene, ListPlacementAndDefaults) {
+  const Scene s =
+      parse_scene(scene_text("count = 2\nplacement = { kind = \"list\", starts = [[0,0,0],[1,2,3]] }\n"
+                             "root = \"free\"\ntip_force = [0.0, 0.5, 0.0]\n"),
+                  "ok.toml");
+  ASSERT_EQ(s.rods.size(), 2u);
+  EXPECT_EQ(s.rods[1].nodes[0], (Vec3{1, 2, 3}));
+  EXPECT_FALSE(s.rods[0].clamped_root);
+  EXPECT_FALSE(s.sim.dt_auto);
+  EXPECT_EQ(s.sim.dt, 1e-4);
+  EXPECT_EQ(s.sim.output_interval, 0.01 / 100);  // default: duration / 100
+  EXPECT_EQ(s.sim.integrator, Integrator::position_verlet);
+  const RodBatch<double> b = build_scene_batch<double>(s);
+  EXPECT_EQ(b.loads.node_force[1][b.node_index(1, 6)], 0.5);  // dead load on the tip node
+  EXPECT_EQ(b.loads.node_force[1][b.node_index(1, 5)], 0.0);
+}
+
+TEST(Scene, RestCurvatureBuildsTheRodUnstressedInThatShape) {
+  const Vec3 u0{30, -10, 5};
+  const Scene s = parse_scene(scene_text("rest_curvature = [30.0, -10.0, 5.0]\n"), "curly.toml");
+  const RodBatch<double> b = build_scene_batch<double>(s);
+  const ModelView<double> m = b.model_view();
+  const ConstStateView<double> st = b.state_view();
+  for (int j = 0; j + 1 < 6; ++j) {  // the library's discrete curvature = the requested U0
+    const vec3<double> k = voronoi_strain(b.vor_index(0, j), m, st).kappa;
+    EXPECT_NEAR(k.x, u0[0], 1e-9);
+    EXPECT_NEAR(k.y, u0[1], 1e-9);
+    EXPECT_NEAR(k.z, u0[2], 1e-9);
+  }
+  EXPECT_NEAR(energies(b).elastic, 0, 1e-20);  // built in its rest shape
+  // and it is not straight
+  EXPECT_GT(std::abs(b.position(0, 6)[0]) + std::abs(b.position(0, 6)[1]), 0.01);
+}
+
+// A term switched off by zeroing its stiffness (the scene's way) steps like
+// the compile-time switch of kernels/terms.h.
+TEST(Scene, TermSwitchedOffByZeroStiffnessEqualsTheCompileTimeSwitch) {
+  const std::string extra =
+      "root = \"clamped\"\ntip_force = [0.02, 0.01, 0.0]\n[rods.terms]\nbend = false\ntwist = false\n";
+  const Scene s = parse_scene(scene_text(extra), "terms.toml");
+  RodBatch<double> a = build_scene_batch<double>(s);
+  for (int e = 0; e < 6; ++e) EXPECT_EQ(a.model.vor_stiffness[0][a.vor_index(0, std::min(e, 4))], 0.0);
+  EXPECT_EQ(a.model.vor_stiffness[2][a.root_vor_index(0)], 0.0);
+  EXPECT_GT(a.model.elem_stiffness[0][a.elem_index(0, 0)], 0.0);  // shear stays on
+  RodBatch<double> b = build_batch<double>({s.rods[0]});
+  b.set_node_force(0, 6, {0.02, 0.01, 0});
+  constexpr Terms kNoBendTwist = [] {
+    Terms t;
+    t.bend = false;
+    t.twist = false;
+    return t;
+  }();
+  for (int i = 0; i < 200; ++i) {
+    step(a, 1e-4);
+    step<kNoBendTwist>(b, 1e-4);
+  }
+  double diff = 0, scale = 0;
+  for (int j = 0; j <= 6; ++j)
+    for (int d = 0; d < 3; ++d) {
+      diff = std::max(diff, std::abs(a.position(0, j)[d] - b.position(0, j)[d]));
+      scale = std::max(scale, std::abs(b.position(0, j)[d] - s.rods[0].nodes[j][d]));
+    }
+  EXPECT_GT(scale, 1e-4);        // it moved
+  EXPECT_LE(diff, 1e-12 * 0.3);  // round-off of the summation order only
+}
+
+TEST(Scene, KelvinVoigtOffAndGravitySwitches) {
+  const Scene s = parse_scene(
+      scene_text("[rods.terms]\nkelvin_voigt = false\ngravity = false\n", "gravity = [0.0, 0.0, -9.81]\n"),
+      "terms.toml");
+  EXPECT_EQ(s.rods[0].damping.form, Damping::Form::none);
+  const StepChoice c = step_choice(s);
+  EXPECT_FALSE(c.kelvin_voigt);
+  EXPECT_FALSE(c.gravity);
+  const Scene g =
+      parse_scene(scene_text("", "gravity = [0.0, 0.0, -9.81]\nintegrator = \"pefrl\"\n"), "g.toml");
+  EXPECT_TRUE(step_choice(g).gravity);
+  EXPECT_TRUE(step_choice(g).kelvin_voigt);
+  EXPECT_EQ(step_choice(g).integrator, Integrator::pefrl);
+}
+
+TEST(Scene, OverridesReachTheRods) {
+  const Scene s =
+      parse_scene(scene_text(), "v.toml",
+                  {{"rods.0.damping.tau_extension", 0.05}, {"rods.0.elements", 9}, {"rods.0.length", 0.5}});
+  EXPECT_EQ(s.rods[0].damping.p2, 0.05);
+  EXPECT_EQ(s.rods[0].elements(), 9);
+  EXPECT_NEAR(s.rods[0].nodes.back()[2], 0.5, 1e-15);
+  // an absent integer key is added as an integer (a whole value) …
+  const Scene c = parse_scene(scene_text("placement = { kind = \"grid\", spacing = [0.1, 0.1] }\n"), "v.toml",
+                              {{"rods.0.count", 4}});
+  EXPECT_EQ(c.rods.size(), 4u);
+  expect_error(scene_text(), {"--vary rods.0.elements", "integer"}, {{"rods.0.elements", 2.5}});
+  expect_error(scene_text(), {"--vary rods.0.nosuch.key", "no key 'nosuch'"}, {{"rods.0.nosuch.key", 1}});
+  expect_error(scene_text(), {"simulation", "cannot be varied"}, {{"simulation.dt", 1}});
+  expect_error(scene_text(), {"rods.3", "out of range"}, {{"rods.3.length", 1}});
+  // a value that is out of range is caught by the schema, named as set by --vary
+  expect_error(scene_text(), {"rods.0.material.youngs_modulus (set by --vary)", "must be > 0"},
+               {{"rods.0.material.youngs_modulus", -5}});
+  // a key that does not belong there
+  expect_error(scene_text(),
+               {"bad.toml:11:11: rods.0.damping: viscosities and retardation times given together"},
+               {{"rods.0.damping.bulk_viscosity", 1}});
+}
+
+// ---- bad input: each names file, line, column and key ------------------------
+
+TEST(SceneErrors, UnknownKeys) {
+  expect_error(scene_text("", "dtt = 3\n"),
+               {"bad.toml:4:1: simulation.dtt: unknown key", "allowed here: dt,"});
+  expect_error(scene_text("colour = \"red\"\n"), {"bad.toml:12:1: rods.0.colour: unknown key"});
+  expect_error(scene_text("[rods.terms]\nbending = false\n"),
+               {"bad.toml:13:1: rods.0.terms.bending: unknown key"});
+  expect_error(
+      "[simulation]\ndt = 1e-4\nduration = 1.0\n[[rods]]\nelements = 3\nlength = 1.0\n"
+      "section = { shape = \"circle\", radius = 0.01, width = 2.0 }\n"
+      "material = { density = 1.0, youngs_modulus = 1.0, poisson_ratio = 0.3 }\n",
+      {"bad.toml:7:", "rods.0.section.width: unknown key"});
+  expect_error(scene_text() + "[extra]\nx = 1\n", {"bad.toml:12:", "extra: unknown key"});
+}
+
+TEST(SceneErrors, WrongTypes) {
+  expect_error(scene_text("count = \"ten\"\n"),
+               {"bad.toml:12:9: rods.0.count: must be an integer, got a string"});
+  expect_error(scene_text("count = 2.0\n"), {"bad.toml:12:9: rods.0.count: must be an integer, got a float"});
+  expect_error(scene_text("start = [0.0, 1.0]\n"), {"bad.toml:12:9: rods.0.start: must have 3 entries"});
+  expect_error(scene_text("start = [0.0, \"a\", 1.0]\n"),
+               {"bad.toml:12:", "rods.0.start.1: must be a number, got a string"});
+  expect_error(
+      scene_text("", "integrator = \"euler\"\n"),
+      {"bad.toml:4:14: simulation.integrator: \"euler\" is not one of \"position_verlet\", \"pefrl\""});
+  expect_error(scene_text("", "precision = 32\n"), {"bad.toml:4:", "simulation.precision: must be a string"});
+  expect_error(scene_text("[rods.terms]\nshear = 1\n"),
+               {"bad.toml:13:9: rods.0.terms.shear: must be true or false"});
+  expect_error(scene_text("root = \"pinned\"\n"), {"bad.toml:12:", "rods.0.root: \"pinned\" is not one of"});
+}
+
+TEST(SceneErrors, OutOfRangeValues) {
+  std::string t = scene_text();
+  auto replace = [](std::string s, const std::string& from, const std::string& to) {
+    s.replace(s.find(from), from.size(), to);
+    return s;
+  };
+  expect_error(replace(t, "elements = 6", "elements = 0"),
+               {"bad.toml:7:12: rods.0.elements: must be in [1,", "(got 0)"});
+  expect_error(replace(t, "youngs_modulus = 1.0e6", "youngs_modulus = -1.0e6"),
+               {"bad.toml:10:", "rods.0.material.youngs_modulus: must be > 0 (got -1000000)"});
+  expect_error(replace(t, "density = 1000.0", "density = nan"),
+               {"bad.toml:10:", "rods.0.material.density: must be finite"});
+  expect_error(replace(t, "length = 0.3", "length = inf"), {"bad.toml:8:10: rods.0.length: must be finite"});
+  expect_error(replace(t, "dt = 1e-4", "dt = 0"), {"bad.toml:2:6: simulation.dt: must be > 0 (got 0)"});
+  expect_error(replace(t, "dt = 1e-4", "dt = \"fast\""),
+               {"bad.toml:2:6: simulation.dt: must be a number of seconds or \"auto\""});
+  expect_error(replace(t, "duration = 0.01", "duration = -1.0"),
+               {"bad.toml:3:", "simulation.duration: must be > 0"});
+  expect_error(replace(t, "poisson_ratio = 0.3", "poisson_ratio = 0.7"),
+               {"bad.toml:10:", "rods.0.material.poisson_ratio: must be in (-1, 0.5]"});
+  expect_error(replace(t, "tau_shear = 0.01", "tau_shear = -0.01"),
+               {"bad.toml:11:", "rods.0.damping.tau_shear: must be >= 0"});
+  expect_error(replace(t, "width = 0.01", "width = 0.0"),
+               {"bad.toml:9:", "rods.0.section.width: must be > 0"});
+  expect_error(scene_text("[rods.terms]\ngravity = false\n", "dt_safety = 0.5\n"),
+               {"bad.toml:4:", "simulation.dt_safety: only used with dt = \"auto\""});
+  expect_error(scene_text("normal = [0.0, 0.0, 2.0]\n"),
+               {"bad.toml:12:", "rods.0.normal: normal must not be parallel"});
+  expect_error(scene_text("direction = [0.0, 0.0, 0.0]\n"),
+               {"bad.toml:12:", "rods.0.direction: must not be the zero vector"});
+}
+
+TEST(SceneErrors, InconsistentOrMissing) {
+  const std::string head = "[simulation]\ndt = 1e-4\nduration = 1.0\n[[rods]]\nelements = 3\nlength = 1.0\n";
+  const std::string mat = "material = { density = 1.0, youngs_modulus = 1.0, poisson_ratio = 0.3 }\n";
+  const std::string sec = "section = { shape = \"circle\", radius = 0.01 }\n";
+  expect_error(head + mat, {"bad.toml:4:1: rods.0.section: missing (required)"});
+  expect_error(head + sec, {"bad.toml:4:1: rods.0.material: missing (required)"});
+  expect_error("[[rods]]\nelements = 3\n", {"bad.toml: simulation: missing table [simulation]"});
+  expect_error("[simulation]\ndt = 1e-4\nduration = 1.0\n", {"bad.toml: rods: missing"});
+  expect_error(
+      head + sec +
+          "material = { density = 1.0, youngs_modulus = 1.0, poisson_ratio = 0.3, shear_modulus = 0.4 }\n",
+      {"bad.toml:8:", "rods.0.material.shear_modulus: give poisson_ratio or shear_modulus, not both"});
+  expect_error(
+      head + sec + "material = { density = 1.0, youngs_modulus = 1.0 }\n",
+      {"bad.toml:8:", "rods.0.material.poisson_ratio: missing (give poisson_ratio or shear_modulus)"});
+  expect_error(head + sec + mat + "count = 3\n",
+               {"bad.toml:4:1: rods.0.placement: missing (count > 1 needs a placement"});
+  expect_error(
+      head + mat + "section = { shape = \"hollow_circle\", outer_radius = 0.01, inner_radius = 0.01 }\n",
+      {"bad.toml:8:", "rods.0.section.inner_radius: must be < outer_radius"});
+  expect_error(head + sec + mat + "root = \"driven\"\n",
+               {"bad.toml:9:", "rods.0.root: driven roots are not supported yet"});
+  expect_error(head + sec + mat + "damping = { tau_shear = 0.01 }\n",
+               {"bad.toml:9:", "rods.0.damping.tau_extension: missing"});
+  // (τS, τE) implying a negative bulk viscosity: the library's InputError, placed at the damping table
+  expect_error(head + sec + mat + "damping = { tau_shear = 0.1, tau_extension = 0.01 }\n",
+               {"bad.toml:9:", "rods.0.damping:", "bulk"});
+  expect_error(head + sec + mat + "root = \"free\"\ninitial_tip_force = [1.0, 0.0, 0.0]\n",
+               {"bad.toml:10:", "rods.0.initial_tip_force: needs root = \"clamped\""});
+  // gravity is one switch for the batch
+  expect_error(head + sec + mat + "[[rods]]\nelements = 3\nlength = 1.0\n" + sec + mat +
+                   "[rods.terms]\ngravity = false\n",
+               {"bad.toml:", "rods.1.terms.gravity: differs from rods.0"});
+  // TOML syntax
+  expect_error("[simulation]\ndt = 1e-4\nduration = \n", {"bad.toml:3:", "TOML syntax error"});
+}
+
+TEST(SceneErrors, ImpossibleMemoryRequest) {
+  const std::string many = "count = 10000000\nplacement = { kind = \"grid\", spacing = [0.01, 0.01] }\n";
+  // 10^7 rods of 100 elements fit the int slot index but not this machine (about 870 GB)
+  expect_error(scene_text(many), {"bad.toml: the scene needs about", "GB", "more than this machine's"},
+               {{"rods.0.elements", 100}});
+  // 10^7 rods of 300 elements: past the library's int slot index
+  expect_error(scene_text(many), {"bad.toml: the scene has 3000000000 elements", "int index"},
+               {{"rods.0.elements", 300}});
+}
+
+TEST(SceneErrors, UnreadableFile) {
+  try {
+    (void)load_scene("/nonexistent/dir/scene.toml");
+    ADD_FAILURE() << "no error";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/scene.toml: cannot read"), std::string::npos)
+        << e.what();
+  }
+}
