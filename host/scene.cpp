@@ -570,7 +570,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     double length;
     int elements;
     Vec3 u0;
-    bool curved, clamped;
+    bool curved, clamped, stiff = false;
     double scale;
     Section section;
     Material material;
@@ -597,7 +597,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     const Table g(ctx, gt, "rods." + std::to_string(gi),
                   {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
                    "section", "material", "damping", "rest_curvature", "root", "tip_force",
-                   "initial_tip_force", "terms", "shear_stretch_scale"});
+                   "initial_tip_force", "terms", "shear_stretch_scale", "stiff"});
     Pending p;
     p.table = &gt;
     p.g.name = g.has("name") ? g.text("name") : "rods." + std::to_string(gi);
@@ -632,6 +632,9 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
       p.g.initial_tip_force = g.vec3("initial_tip_force");
     }
     p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
+    p.stiff = g.boolean("stiff", false);
+    if (p.stiff && sc.sim.integrator != Integrator::position_verlet)
+      g.fail("stiff", "stiff rods (shear, stretch and twist implicit) need integrator = \"position_verlet\"");
     if (g.has("terms")) {
       const Table t = g.sub("terms", {"shear", "stretch", "bend", "twist", "kelvin_voigt", "gravity"});
       p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true),      t.boolean("bend", true),
@@ -683,6 +686,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
       r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
       r.shear_stretch_scale = p.scale;
       r.clamped_root = p.clamped;
+      r.stiff_implicit = p.stiff;
       sc.rods.push_back(std::move(r));
       sc.rod_group.push_back(int(gi));
     }

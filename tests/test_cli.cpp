@@ -154,7 +154,7 @@ TEST(Cli, ExampleScenesRun) {
     const char* duration;
     int rods;
   };
-  for (const Example& e : {Example{"seed_cantilever", "0.01", 1}, Example{"hair_groom", "2e-6", 64},
+  for (const Example& e : {Example{"seed_cantilever", "0.01", 1}, Example{"hair_groom", "0.1", 64},
                            Example{"cable_bundle", "0.002", 16}}) {
     SCOPED_TRACE(e.file);
     const std::string out = path(std::string(e.file) + ".h5");

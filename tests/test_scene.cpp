@@ -103,6 +103,7 @@ TEST(Scene, HairGroomRootsLieOnTheScalpAndGrowOutward) {
     EXPECT_NEAR(q[6] * x0[0] + q[7] * x0[1] + q[8] * x0[2], 0.09, 1e-9);
     EXPECT_EQ(r.section.a, 40e-6);
     EXPECT_TRUE(r.clamped_root);
+    EXPECT_TRUE(r.stiff_implicit);  // stiff = true: frame-rate steps
   }
   // scattered, not stacked: distinct roots
   EXPECT_GT(
