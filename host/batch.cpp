@@ -178,6 +178,7 @@ void RodBatch<T>::allocate(int slots, std::int64_t elements) {
   fill3(state.node_v, 0, 0, 0);
   for (int i = 0; i < 9; ++i) state.elem_Q[i].resize(S, (i % 4 == 0) ? T(1) : T(0));
   fill3(state.elem_w, 0, 0, 0);
+  if constexpr (sizeof(T) == 4) fill3(state.node_xc, 0, 0, 0);
   for (auto* a : {&scratch.elem_force, &scratch.elem_couple, &scratch.vor_moment, &scratch.vor_kxm,
                   &loads.node_force, &loads.elem_couple})
     fill3(*a, 0, 0, 0);
@@ -254,7 +255,7 @@ std::size_t RodBatch<T>::bytes() const {
                   model.elem_rest_length.bytes() + model.vor_rest_length.bytes();
   for (auto* a : {&model.elem_stiffness, &model.elem_rest_strain, &model.elem_tau, &model.elem_inertia,
                   &model.elem_inv_inertia, &model.vor_stiffness, &model.vor_rest_curvature, &model.vor_tau,
-                  &state.node_x, &state.node_v, &state.elem_w, &scratch.elem_force, &scratch.elem_couple,
+                  &state.node_x, &state.node_v, &state.elem_w, &state.node_xc, &scratch.elem_force, &scratch.elem_couple,
                   &scratch.vor_moment, &scratch.vor_kxm, &loads.node_force, &loads.elem_couple})
     for (const auto& x : *a) b += x.bytes();
   for (const auto& x : state.elem_Q) b += x.bytes();
@@ -297,6 +298,7 @@ StateView<T> RodBatch<T>::state_view() {
     v.node_x[i] = state.node_x[i].data();
     v.node_v[i] = state.node_v[i].data();
     v.elem_w[i] = state.elem_w[i].data();
+    v.node_xc[i] = state.node_xc[i].size() ? state.node_xc[i].data() : nullptr;
   }
   for (int i = 0; i < 9; ++i) v.elem_Q[i] = state.elem_Q[i].data();
   return v;

@@ -343,6 +343,7 @@ void Writer::write_checkpoint(const Checkpoint& c) {
   put("node_v", c.node_v, 3);
   put("elem_Q", c.elem_Q, 9);
   put("elem_w", c.elem_w, 3);
+  if (!c.node_xc.empty()) put("node_xc", c.node_xc, 3);
 }
 
 void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
@@ -421,6 +422,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   get("node_v", c.node_v, 3);
   get("elem_Q", c.elem_Q, 9);
   get("elem_w", c.elem_w, 3);
+  if (H5Lexists(g.get(), "node_xc", H5P_DEFAULT) > 0) get("node_xc", c.node_xc, 3);
   c.from_sweep = H5Lexists(f.get(), "sweep", H5P_DEFAULT) > 0;
   return c;
 }

@@ -69,6 +69,9 @@ struct Checkpoint {
   bool from_sweep = false;  // the file is a sweep's (read only)
   // [3][slots], [3][slots], [9][slots], [3][slots] of float or double, as bytes
   std::vector<unsigned char> node_x, node_v, elem_Q, elem_w;
+  // float only: the positions' compensation (State::node_xc) [3][slots];
+  // empty for double (and zero when an older file lacks it)
+  std::vector<unsigned char> node_xc;
 };
 
 // A named column of values per sweep variation.

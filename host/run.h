@@ -62,6 +62,7 @@ void copy_state(State<T>& dst, const State<T>& src) {
   copy_arrays(dst.node_v, src.node_v);
   copy_arrays(dst.elem_Q, src.elem_Q);
   copy_arrays(dst.elem_w, src.elem_w);
+  copy_arrays(dst.node_xc, src.node_xc);
   dst.time = src.time;
   dst.steps = src.steps;
 }

@@ -79,6 +79,7 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
     from_bytes(b.state.node_v, restart->node_v);
     from_bytes(b.state.elem_Q, restart->elem_Q);
     from_bytes(b.state.elem_w, restart->elem_w);
+    if (!restart->node_xc.empty() && b.state.node_xc[0].size()) from_bytes(b.state.node_xc, restart->node_xc);
     b.state.time = restart->time;
     b.state.steps = restart->steps;
     dissipated = restart->dissipated;
@@ -202,6 +203,7 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
   to_bytes(b.state.node_v, c.node_v);
   to_bytes(b.state.elem_Q, c.elem_Q);
   to_bytes(b.state.elem_w, c.elem_w);
+  if (b.state.node_xc[0].size()) to_bytes(b.state.node_xc, c.node_xc);
   w.write_checkpoint(c);
   if (opt.before_finish) opt.before_finish(w, probes);
   w.finish();

@@ -15,10 +15,29 @@
 
 namespace manyrods {
 
+// In float, x += h v loses the part of h v below half an ulp of x: a hair
+// tip at 0.2 m moving at 1 m/s with h = 2e-8 s advances by 2e-8 m, about one
+// ulp (1.5e-8 m), so plain float positions drift or stall, an error that
+// grows with the number of steps (measured: 14 % of the length after 8.6e6
+// steps of the released seed cantilever, bench/RESULTS.md). Float batches
+// therefore keep the lost low part in node_xc and add it back on the next
+// drift (Kahan's compensated summation): the positions then carry about
+// twice float's precision in the sums, at one more array per coordinate.
 template <class T>
 MANYRODS_HD inline void kinematic_node(int k, T h, const StateView<T>& s) {
-  MANYRODS_UNROLL
-  for (int d = 0; d < 3; ++d) s.node_x[d][k] += h * s.node_v[d][k];
+  if constexpr (sizeof(T) == 4) {
+    MANYRODS_UNROLL
+    for (int d = 0; d < 3; ++d) {
+      const T x = s.node_x[d][k];
+      const T y = h * s.node_v[d][k] - s.node_xc[d][k];
+      const T t = x + y;
+      s.node_xc[d][k] = (t - x) - y;
+      s.node_x[d][k] = t;
+    }
+  } else {
+    MANYRODS_UNROLL
+    for (int d = 0; d < 3; ++d) s.node_x[d][k] += h * s.node_v[d][k];
+  }
 }
 
 template <class T>

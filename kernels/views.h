@@ -37,6 +37,9 @@ struct StateView {
   T* node_v[3];   // [3][slots] m/s
   T* elem_Q[9];   // [9][slots] frame, row-major, rows = directors d1, d2, d3
   T* elem_w[3];   // [3][slots] rad/s, material components
+  // float only (nullptr for double): the round-off of node_x carried between
+  // drifts (compensated summation, kernels/integrate.h kinematic_node)
+  T* node_xc[3];
 };
 
 template <class T>

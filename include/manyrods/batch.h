@@ -113,6 +113,10 @@ struct State {
   std::array<Array<T>, 3> node_x, node_v;
   std::array<Array<T>, 9> elem_Q;
   std::array<Array<T>, 3> elem_w;
+  // float batches only (empty for double): the low part of node_x lost to
+  // round-off, carried to the next drift (kernels/integrate.h kinematic_node).
+  // Code that sets node_x directly should zero it.
+  std::array<Array<T>, 3> node_xc;
   double time = 0;
   std::int64_t steps = 0;
 };
