@@ -72,6 +72,21 @@ void drift(RodBatch<T>& b, T h, const Exec& ex) {
   drift(b, h, ex, whole(b));
 }
 
+// Float batches: one Newton–Schulz step towards orthonormal frames
+// (kernels/integrate.h orthonormalize_element), after every
+// kFloatFrameRenormalization-th step counted from the batch's step count, so
+// that it falls on the same steps whatever the chunking of the run.
+template <class T>
+void renormalize_frames(RodBatch<T>& b, const Exec& ex, const Segment& r) {
+  const ModelView<T> m = b.model_view();
+  const StateView<T> s = b.state_view();
+  launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { orthonormalize_element(k, m, s); });
+}
+template <class T>
+constexpr bool renormalize_after(std::int64_t step_done) {
+  return sizeof(T) == 4 && step_done % kFloatFrameRenormalization == 0;
+}
+
 // kEulerOrder: order of the rigid-body (Jω)×ω sub-flow inside the kick
 // (kernels/integrate.h dynamic_element): 2 for Position Verlet, 4 for PEFRL.
 // kStiff: the kick of stiff rods (see dynamic_element).
@@ -179,6 +194,7 @@ void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {}) {
         kick<kExplicit>(b, dt, e, r);
       if (solve) viscous_update<kSolve>(b, dt, e, r, thread);
       drift(b, T(0.5) * dt, e, r);
+      if (renormalize_after<T>(b.state.steps + i + 1)) renormalize_frames(b, e, r);
     }
   });
   for (std::int64_t i = 0; i < count; ++i) b.state.time += double(dt);  // as `count` step() calls
@@ -271,6 +287,7 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {}) {
   drift(b, chi, ex);
   kick_stage(outer);
   drift(b, xi, ex);
+  if (renormalize_after<T>(b.state.steps + 1)) renormalize_frames(b, ex, whole(b));
   b.state.time += double(dt);
   b.state.steps += 1;
 }

@@ -40,6 +40,39 @@ MANYRODS_HD inline void kinematic_node(int k, T h, const StateView<T>& s) {
   }
 }
 
+// Float frames drift away from orthonormal: each drift's product R Q rounds
+// at ~6e-8, systematically, and nothing pulls Q back, so after 6,600 steps
+// of the released seed cantilever |QQᵀ − I| = 3.8e-4; with the stiff shear
+// and stretch reading σ = Q e/l̂ − e3 this is a spurious strain, and it was
+// the largest part of the float error (1.6e-3 L at n = 40 against 8.8e-4 in
+// double, bench/RESULTS.md). One Newton–Schulz step, Q ← Q + ½(I − QQᵀ)Q,
+// halves the digits of the defect (quadratic convergence to the orthonormal
+// polar factor); the host applies it to float batches every
+// kFloatFrameRenormalization steps (host/step.h), so the defect stays at
+// ~1e-6, for ~6 extra FLOP per element-step. Fixed frames (clamp, ghosts:
+// zero inverse inertia) are left as they are.
+inline constexpr int kFloatFrameRenormalization = 16;
+
+template <class T>
+MANYRODS_HD inline void orthonormalize_element(int k, const ModelView<T>& m, const StateView<T>& s) {
+  const mat3<T> q = load_frame(s.elem_Q, k);
+  T c[9];  // (I − QQᵀ)/2, symmetric
+  MANYRODS_UNROLL
+  for (int i = 0; i < 3; ++i)
+    MANYRODS_UNROLL
+    for (int j = 0; j < 3; ++j)
+      c[3 * i + j] = T(0.5) * ((i == j ? T(1) : T(0)) -
+                               (q.m[3 * i] * q.m[3 * j] + q.m[3 * i + 1] * q.m[3 * j + 1] + q.m[3 * i + 2] * q.m[3 * j + 2]));
+  const bool fixed = m.elem_inv_inertia[0][k] == T(0);
+  MANYRODS_UNROLL
+  for (int i = 0; i < 3; ++i)
+    MANYRODS_UNROLL
+    for (int j = 0; j < 3; ++j) {
+      const T v = q.m[3 * i + j] + c[3 * i] * q.m[j] + c[3 * i + 1] * q.m[3 + j] + c[3 * i + 2] * q.m[6 + j];
+      s.elem_Q[3 * i + j][k] = fixed ? q.m[3 * i + j] : v;
+    }
+}
+
 template <class T>
 MANYRODS_HD inline void kinematic_element(int k, T h, const StateView<T>& s) {
   const vec3<T> w = load3(s.elem_w, k);

@@ -14,7 +14,7 @@
 //
 // After the explicit elastic kick u⁻ = u + h M⁻¹ F_elastic, the viscous part
 // is a backward-Euler step at the frozen (half-step) geometry:
-//   (M + h D) u⁺ = M u⁻.
+//   (M + h D) u⁺ = M u⁻,  solved in delta form (M + h D) Δu = −h D u⁻.
 // Its amplification is (I + h M⁻¹D)⁻¹: every mode decays, for any h and τ
 // (L-stable), so τ no longer limits the step; the price is first-order
 // accuracy in the viscous term (as the explicit lagged rate) and the
@@ -166,6 +166,7 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
                                              const StateView<T>& s, const ImplicitScratchView<T>& sc) {
   using namespace viscous_detail;
   const ConstStateView<T> cs = as_const(s);
+  const bool delta = stiff_h == T(0);  // delta form (see below) for all but stiff rods
   Block6<T> carry;  // contributions to the next cell's diagonal block
   for (int i = 0; i < 36; ++i) carry.a[i] = T(0);
   Block6<T> u_prev;  // U_{c−1}
@@ -209,11 +210,30 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
                        m.elem_inertia[0][k], m.elem_inertia[1][k], m.elem_inertia[2][k]};
     const T u[6] = {s.node_v[0][k], s.node_v[1][k], s.node_v[2][k],
                     s.elem_w[0][k], s.elem_w[1][k], s.elem_w[2][k]};
+    // Delta form: (M + hD) Δu = −hD u⁻, u⁺ = u⁻ + Δu (the same solution as
+    // (M + hD) u⁺ = M u⁻). The round-off of the elimination is then relative
+    // to the viscous change Δu, not to u: the system's condition number
+    // (1 + hτω_max², ~400 for the seed cantilever at τ = 0.02 s) times float's
+    // 6e-8 of u per step made the float trajectory of the released cantilever
+    // 1.6e-3 L off the double one after 1 s; in delta form the slow modes,
+    // whose Δu is tiny, keep float's precision. hD u⁻ uses the assembled
+    // blocks: A_c u_c + U_{c−1}ᵀ u_{c−1} + U_c u_{c+1}.
+    // Not for stiff rods (stiff_h > 0): there u⁻ holds the huge pre-solve
+    // velocities of the stiff modes (h|ω⁻| ≫ 1) and Δu ≈ −u⁻ cancels them, so
+    // u⁻ + Δu would lose every digit of u⁺; the direct form M u⁻ computes u⁺
+    // itself (measured: the float stiff hair went non-finite in delta form).
+    const int kp = c > 0 ? k - 1 : k, kn = k + 1;  // c = 0: U_{−1} = 0
+    const T up[6] = {s.node_v[0][kp], s.node_v[1][kp], s.node_v[2][kp],
+                     s.elem_w[0][kp], s.elem_w[1][kp], s.elem_w[2][kp]};
+    const T un[6] = {s.node_v[0][kn], s.node_v[1][kn], s.node_v[2][kn],
+                     s.elem_w[0][kn], s.elem_w[1][kn], s.elem_w[2][kn]};
     T y[6];
     for (int i = 0; i < 6; ++i) {
-      A.a[7 * i] += mass[i];
-      y[i] = mass[i] * u[i];
+      T acc = T(0);
+      for (int j = 0; j < 6; ++j) acc += A.a[6 * i + j] * u[j] + U.a[6 * i + j] * un[j] + u_prev.a[6 * j + i] * up[j];
+      y[i] = delta ? -acc : mass[i] * u[i];
     }
+    for (int i = 0; i < 6; ++i) A.a[7 * i] += mass[i];
     // elimination: Â_c = A_c − U_{c−1}ᵀ G_{c−1},  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1}
     for (int i = 0; i < 6; ++i) {
       for (int j = 0; j < 6; ++j) {
@@ -268,9 +288,9 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
       for (int j = 0; j < 6; ++j) v -= sc.G[6 * i + j][c] * next[j];
       x[i] = v;
     }
-    for (int d = 0; d < 3; ++d) {
-      s.node_v[d][k] = x[d];
-      s.elem_w[d][k] = x[3 + d];
+    for (int d = 0; d < 3; ++d) {  // delta form: u⁺ = u⁻ + Δu
+      s.node_v[d][k] = delta ? s.node_v[d][k] + x[d] : x[d];
+      s.elem_w[d][k] = delta ? s.elem_w[d][k] + x[3 + d] : x[3 + d];
     }
     for (int i = 0; i < 6; ++i) next[i] = x[i];
   }
