@@ -23,6 +23,7 @@
 
 #include "host/launch.h"
 #include "kernels/energy.h"
+#include "kernels/viscous_implicit_lanes.h"
 #include "manyrods/batch.h"
 
 namespace manyrods {
@@ -117,29 +118,91 @@ void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
     if (!r.fused) run(r, ex, 0);
 }
 
-// Stage 3b on the rods of segment r, rod by rod: the backward-Euler solve
+// Rods per lane group of the implicit solve (kernels/viscous_implicit_lanes.h):
+// one 512-bit vector of float or double (measured, bench/RESULTS.md).
+template <class T>
+inline constexpr int kImplicitLanes = sizeof(T) == 4 ? 16 : 8;
+
+// Stage 3b on the rods of segment r: the backward-Euler solve
 // (kernels/viscous_implicit.h) of every rod that needs one: damped rods when
 // kT.kelvin_voigt (the Kelvin–Voigt term is solved here), stiff rods
 // (RodSpec::stiff_implicit) always. Undamped, non-stiff rods pay nothing.
-// `thread` picks the elimination buffer (reserve_implicit_scratch first).
-template <Terms kT, class T>
+//
+// Rods with the same element count are solved kLanes at a time, one per SIMD
+// lane (viscous_implicit_lanes; kLanes = 0: kImplicitLanes<T>), in the order
+// they come: the first kLanes rods of a count form a group, the next kLanes
+// the next one, …; what is left of each count (fewer than kLanes rods) is
+// solved rod by rod (viscous_implicit_rod; kLanes = 1: every rod). The groups
+// depend only on the rods of the segment (in chunks of kChunk rods), never on
+// the thread count, so neither do the results. Lanes and scalar kernel agree
+// to round-off (tests/test_implicit_lanes.cpp), not bit for bit.
+//
+// `thread` picks the elimination buffer (reserve_implicit_scratch first);
+// every solve uses it from its start (42·kLanes·cells ≤ 42 × the segment's
+// slots). With ex.threads > 1 (a segment stepped by all threads) the groups
+// and single rods are shared out, each thread using its own buffer.
+template <Terms kT, int kLanes = 0, class T>
 void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
+  constexpr int W = kLanes > 0 ? kLanes : kImplicitLanes<T>;
+  constexpr int kChunk = 1024;
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
-#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 16) if (ex.threads > 1 && r.rod_end - r.rod_begin > 1)
-  for (int i = r.rod_begin; i < r.rod_end; ++i) {
-    const RodInfo& rod = b.rods[i];
-    if (!(rod.stiff_implicit || (kT.kelvin_voigt && rod.damped))) continue;
-    const int first = rod.offset + 1;
-    viscous_implicit_rod<kT>(first, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s,
-                             b.implicit_scratch_view(thread, first - r.begin));
+  auto needs_solve = [&](const RodInfo& rod) { return rod.stiff_implicit || (kT.kelvin_voigt && rod.damped); };
+  for (int c0 = r.rod_begin; c0 < r.rod_end; c0 += kChunk) {
+    const int c1 = c0 + kChunk < r.rod_end ? c0 + kChunk : r.rod_end;
+    // rods of this chunk that need the solve; then ordered into work items:
+    // a full group (W rods of one count) or a single rod
+    int pending[kChunk], order[kChunk], item_begin[kChunk + 1];
+    int n = 0, items = 0, placed = 0;
+    for (int i = c0; i < c1; ++i)
+      if (needs_solve(b.rods[i])) pending[n++] = i;
+    for (int a = 0; a < n; ++a) {
+      if (pending[a] < 0) continue;
+      const int cells = b.rods[pending[a]].elements + 1;
+      // the next W rods with this cell count (fewer: the last of them); a
+      // group must fit the thread's buffer (always, for a real segment)
+      int group[W], count = 0;
+      for (int j = a; j < n && count < W; ++j)
+        if (pending[j] >= 0 && b.rods[pending[j]].elements + 1 == cells) {
+          group[count++] = pending[j];
+          pending[j] = -1;
+        }
+      const bool lanes = W > 1 && count == W && W * cells <= b.scratch.visc_cells;
+      for (int j = 0; j < count; ++j) {
+        if (j == 0 || !lanes) item_begin[items++] = placed;
+        order[placed++] = group[j];
+      }
+    }
+    item_begin[items] = placed;
+    auto solve = [&](int item, int t) {
+      const int* rods = order + item_begin[item];
+      const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
+      if (item_begin[item + 1] - item_begin[item] == W && W > 1) {
+        int first[W];
+        T stiff_h[W];
+        for (int j = 0; j < W; ++j) {
+          first[j] = b.rods[rods[j]].offset + 1;
+          stiff_h[j] = b.rods[rods[j]].stiff_implicit ? h : T(0);
+        }
+        viscous_implicit_lanes<kT, W>(first, b.rods[rods[0]].elements + 1, h, stiff_h, m, s, sc);
+      } else {
+        const RodInfo& rod = b.rods[rods[0]];
+        viscous_implicit_rod<kT>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s, sc);
+      }
+    };
+    if (ex.threads > 1 && items > 1) {
+#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 1)
+      for (int it = 0; it < items; ++it) solve(it, omp_get_thread_num());
+    } else {
+      for (int it = 0; it < items; ++it) solve(it, thread);
+    }
   }
 }
-template <Terms kT, class T>
+template <Terms kT, int kLanes = 0, class T>
 void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
   b.reserve_implicit_scratch(ex.threads);
   for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
-    viscous_update<kT>(b, h, e, r, thread);
+    viscous_update<kT, kLanes>(b, h, e, r, thread);
   });
 }
 
