@@ -136,10 +136,10 @@ void count(const char* name) {
     ImplicitScratchView<F> lsc{};
     for (int i = 0; i < 36; ++i) lsc.G[i] = lane_arrays[i].data();
     for (int i = 0; i < 6; ++i) lsc.g[i] = lane_arrays[36 + i].data();
-    int first[kW];
+    int first[kW], cells[kW];
     F stiff_h[kW];
-    for (int l = 0; l < kW; ++l) first[l] = b.rods[0].offset + 1, stiff_h[l] = F(0);
-    const Count vl = measure([&] { viscous_implicit_lanes<kT, kW>(first, 7, h, stiff_h, m, st, lsc); });
+    for (int l = 0; l < kW; ++l) first[l] = b.rods[0].offset + 1, cells[l] = 7, stiff_h[l] = F(0);
+    const Count vl = measure([&] { viscous_implicit_lanes<kT, kW>(first, cells, h, stiff_h, m, st, lsc); });
     visc_lanes = vl.total() / (7 * kW);
     visc_lanes_div = (vl.div + vl.sqrt) / (7 * kW);
   }

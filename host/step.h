@@ -14,6 +14,7 @@
 // backward Euler after the elastic kick (stable for any τ).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -118,6 +119,12 @@ void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
     if (!r.fused) run(r, ex, 0);
 }
 
+#if defined(__GNUC__)
+#define MANYRODS_NOINLINE __attribute__((noinline))
+#else
+#define MANYRODS_NOINLINE
+#endif
+
 // Rods per lane group of the implicit solve (kernels/viscous_implicit_lanes.h):
 // one 512-bit vector of float or double (measured, bench/RESULTS.md).
 template <class T>
@@ -128,19 +135,24 @@ inline constexpr int kImplicitLanes = sizeof(T) == 4 ? 16 : 8;
 // kT.kelvin_voigt (the Kelvin–Voigt term is solved here), stiff rods
 // (RodSpec::stiff_implicit) always. Undamped, non-stiff rods pay nothing.
 //
-// Rods with the same element count are solved kLanes at a time, one per SIMD
-// lane (viscous_implicit_lanes; kLanes = 0: kImplicitLanes<T>), in the order
-// they come: the first kLanes rods of a count form a group, the next kLanes
-// the next one, …; what is left of each count (fewer than kLanes rods) is
-// solved rod by rod (viscous_implicit_rod; kLanes = 1: every rod). The groups
-// depend only on the rods of the segment (in chunks of kChunk rods), never on
-// the thread count, so neither do the results. Lanes and scalar kernel agree
-// to round-off (tests/test_implicit_lanes.cpp), not bit for bit.
+// The rods are solved kLanes at a time, one per SIMD lane
+// (viscous_implicit_lanes; kLanes = 0: kImplicitLanes<T>; 1: every rod by the
+// scalar viscous_implicit_rod). Groups are formed from the rods sorted by
+// element count (longest first, then by index): the next kLanes rods form a
+// group, run for the longest one's cells (the shorter ones idle first, see
+// the kernel: equal counts waste nothing, and a segment of equal rods — hair,
+// cables — has only equal groups). A last group of fewer rods is filled with
+// copies of its last rod; a group of one rod, or one too long for the
+// thread's buffer (kLanes × (cells + 1) > a segment), is solved by the scalar kernel.
+// A rod's lanes result does not depend on its group (the kernel's idle cells
+// add exact zeros), and the groups depend only on the rods of the segment (in
+// chunks of kChunk rods), never on the thread count, so neither do the
+// results. Lanes and scalar kernel agree to round-off, not bit for bit
+// (tests/test_implicit_lanes.cpp).
 //
 // `thread` picks the elimination buffer (reserve_implicit_scratch first);
-// every solve uses it from its start (42·kLanes·cells ≤ 42 × the segment's
-// slots). With ex.threads > 1 (a segment stepped by all threads) the groups
-// and single rods are shared out, each thread using its own buffer.
+// every solve uses it from its start. With ex.threads > 1 (a segment stepped
+// by all threads) the groups are shared out, each thread using its own buffer.
 template <Terms kT, int kLanes = 0, class T>
 void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
   constexpr int W = kLanes > 0 ? kLanes : kImplicitLanes<T>;
@@ -150,41 +162,41 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
   auto needs_solve = [&](const RodInfo& rod) { return rod.stiff_implicit || (kT.kelvin_voigt && rod.damped); };
   for (int c0 = r.rod_begin; c0 < r.rod_end; c0 += kChunk) {
     const int c1 = c0 + kChunk < r.rod_end ? c0 + kChunk : r.rod_end;
-    // rods of this chunk that need the solve; then ordered into work items:
-    // a full group (W rods of one count) or a single rod
-    int pending[kChunk], order[kChunk], item_begin[kChunk + 1];
-    int n = 0, items = 0, placed = 0;
+    // the rods of this chunk that need the solve, longest first
+    int order[kChunk], item_begin[kChunk + 1];
+    int n = 0, items = 0;
     for (int i = c0; i < c1; ++i)
-      if (needs_solve(b.rods[i])) pending[n++] = i;
-    for (int a = 0; a < n; ++a) {
-      if (pending[a] < 0) continue;
-      const int cells = b.rods[pending[a]].elements + 1;
-      // the next W rods with this cell count (fewer: the last of them); a
-      // group must fit the thread's buffer (always, for a real segment)
-      int group[W], count = 0;
-      for (int j = a; j < n && count < W; ++j)
-        if (pending[j] >= 0 && b.rods[pending[j]].elements + 1 == cells) {
-          group[count++] = pending[j];
-          pending[j] = -1;
-        }
-      const bool lanes = W > 1 && count == W && W * cells <= b.scratch.visc_cells;
-      for (int j = 0; j < count; ++j) {
-        if (j == 0 || !lanes) item_begin[items++] = placed;
-        order[placed++] = group[j];
-      }
+      if (needs_solve(b.rods[i])) order[n++] = i;
+    if constexpr (W > 1)
+      std::sort(order, order + n, [&](int x, int y) {
+        const int ex_ = b.rods[x].elements, ey = b.rods[y].elements;
+        return ex_ != ey ? ex_ > ey : x < y;
+      });
+    // items: runs of `order`, a group (2 … W rods) or a single rod
+    for (int a = 0; a < n;) {
+      const int cells = b.rods[order[a]].elements + 1;
+      const int count = W * (cells + 1) <= b.scratch.visc_cells ? std::min(W, n - a) : 1;
+      item_begin[items++] = a;
+      a += count;
     }
-    item_begin[items] = placed;
-    auto solve = [&](int item, int t) {
+    item_begin[items] = n;
+    // One compiled copy of the kernels for both branches below (not inlined
+    // twice: two copies may contract a·b + c into FMAs differently, and the
+    // results would then depend on the branch, i.e. on the thread count).
+    auto solve = [&](int item, int t) MANYRODS_NOINLINE {
       const int* rods = order + item_begin[item];
+      const int count = item_begin[item + 1] - item_begin[item];
       const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
-      if (item_begin[item + 1] - item_begin[item] == W && W > 1) {
-        int first[W];
+      if (count > 1) {
+        int first[W], cells[W];
         T stiff_h[W];
         for (int j = 0; j < W; ++j) {
-          first[j] = b.rods[rods[j]].offset + 1;
-          stiff_h[j] = b.rods[rods[j]].stiff_implicit ? h : T(0);
+          const RodInfo& rod = b.rods[rods[j < count ? j : count - 1]];
+          first[j] = rod.offset + 1;
+          cells[j] = rod.elements + 1;
+          stiff_h[j] = rod.stiff_implicit ? h : T(0);
         }
-        viscous_implicit_lanes<kT, W>(first, b.rods[rods[0]].elements + 1, h, stiff_h, m, s, sc);
+        viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, m, s, sc);
       } else {
         const RodInfo& rod = b.rods[rods[0]];
         viscous_implicit_rod<kT>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s, sc);

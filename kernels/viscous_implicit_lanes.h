@@ -52,9 +52,9 @@
 //
 // reads: model, state geometry and velocities of the W rods
 // writes: node_v, elem_w of their cells, and the elimination scratch:
-//   G[i][c·W + l] (i < 36, row-major 6×6) and g[i][c·W + l] (i < 6) for cell c
-//   of lane l, c < cells: 42·W·cells values (the host passes a per-thread
-//   buffer at least that long).
+//   G[i][c·W + l] (i < 36, row-major 6×6) and g[i][c·W + l] (i < 6) for the
+//   group's cell c of lane l, c ≤ max(cells): 42·W·(max(cells) + 1) values
+//   (the host passes a per-thread buffer at least that long).
 #pragma once
 
 #include "kernels/viscous_implicit.h"
@@ -103,25 +103,35 @@ struct Cell {
   int general[W]; // lane needs the general (large-rotation) joint strain
 };
 
-// The blocks of joint (Voronoi point) k, from c1 = −J/D̂, c2 = J Rᵀ/D̂ and
-// v̂ = h C_M τ / D̂: S = c1ᵀWc1 h = Jᵀ diag(v̂) J (lower, 6 entries),
-// SRt = S Rᵀ = −c1ᵀWc2 h (9), RSRt = R S Rᵀ = c2ᵀWc2 h (lower, 6). Returns
-// true where kSmall and the joint turns by more than the small-rotation path
-// covers (the caller redoes that lane with kSmall = false).
-template <Terms kT, bool kSmall, class T>
-MANYRODS_HD inline bool joint_blocks(int k, T h, T stiff_h, const ModelView<T>& m, const ConstStateView<T>& s,
-                                     T s6[6], T sRt[9], T rsRt[6]) {
-  const VoronoiStrain<T> vs = voronoi_strain<kSmall>(k, m, s);
-  bool general = false;
-  if constexpr (kSmall) general = !((vs.c >= T(kSmallRotationCos)) & (vs.theta * vs.theta <= T(kSmallRotation2)));
-  const T hd = h / m.vor_rest_length[k];
-  const vec3<T> cm = load3(m.vor_stiffness, k);
-  const vec3<T> tau = viscous_detail::solve_tau<kT>(m.vor_tau, k, stiff_h, true);
-  const T v[3] = {kT.bend ? hd * cm.x * tau.x : T(0), kT.bend ? hd * cm.y * tau.y : T(0),
-                  kT.twist ? hd * cm.z * tau.z : T(0)};
-  // J = (1 − γ|ψ|²) I + ½[ψ]× + γ ψψᵀ
-  const vec3<T> p = vs.psi;
-  const T g = vs.gamma, dg = T(1) - g * dot(p, p);
+// The packed inputs (see viscous_implicit_lanes): value a of cell c, lane l
+// at P[a][c·W + l].
+enum Packed : int {
+  kX = 0,            // node_x (3)
+  kV = 3,            // node_v (3)
+  kOmega = 6,        // elem_w (3)
+  kQ = 9,            // elem_Q (9)
+  kL = 18,           // elem_rest_length
+  kCF = 19,          // elem_stiffness (3)
+  kTauF = 22,        // elem_tau (3)
+  kD = 25,           // vor_rest_length
+  kCM = 26,          // vor_stiffness (3)
+  kTauM = 29,        // vor_tau (3)
+  kMass = 32,        // node_mass
+  kInertia = 33,     // elem_inertia (3)
+  kInvMass = 36,     // node_inv_mass
+  kInvInertia = 37,  // elem_inv_inertia (3)
+  kPacked = 40
+};
+
+// The blocks of a joint from its rotation R = Q_b Q_aᵀ, ψ = log R, γ and the
+// weights v̂ = h C_M τ / D̂, with c1 = −J/D̂, c2 = J Rᵀ/D̂:
+// S = c1ᵀWc1 h = Jᵀ diag(v̂) J (lower, 6 entries), SRt = S Rᵀ = −c1ᵀWc2 h (9),
+// RSRt = R S Rᵀ = c2ᵀWc2 h (lower, 6).
+template <class T>
+MANYRODS_HD inline void joint_blocks(const mat3<T>& rot, vec3<T> p, T g, const T v[3], T s6[6], T sRt[9],
+                                     T rsRt[6]) {
+  // J = J_r(ψ)⁻¹ = (1 − γ|ψ|²) I + ½[ψ]× + γ ψψᵀ
+  const T dg = T(1) - g * dot(p, p);
   const T gx = g * p.x, gy = g * p.y, gz = g * p.z;
   const T hx = T(0.5) * p.x, hy = T(0.5) * p.y, hz = T(0.5) * p.z;
   const T gxy = gx * p.y, gxz = gx * p.z, gyz = gy * p.z;
@@ -142,7 +152,7 @@ MANYRODS_HD inline bool joint_blocks(int k, T h, T stiff_h, const ModelView<T>& 
       S[3 * j + i] = S[3 * i + j];
       s6[i * (i + 1) / 2 + j] = S[3 * i + j];
     }
-  const T* R = vs.R.m;
+  const T* R = rot.m;
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 3; ++i)
     MANYRODS_UNROLL_ALL
@@ -153,36 +163,48 @@ MANYRODS_HD inline bool joint_blocks(int k, T h, T stiff_h, const ModelView<T>& 
     MANYRODS_UNROLL_ALL
     for (int j = 0; j <= i; ++j)
       rsRt[i * (i + 1) / 2 + j] = R[3 * i] * sRt[j] + R[3 * i + 1] * sRt[3 + j] + R[3 * i + 2] * sRt[6 + j];
-  return general;
 }
 
-// The root cell's carried block: the root joint (to the clamp frame, zero
-// stiffness for a free root) adds c2ᵀWc2 h to A_ωω of cell 0.
-template <Terms kT, bool kSmall, int W, class T>
-MANYRODS_HD inline void root_lane(int l, int k, T h, T stiff_h, const ModelView<T>& m, const ConstStateView<T>& s,
-                                  Cell<T, W>& out) {
-  T s6[6], sRt[9], rsRt[6];
-  out.general[l] = joint_blocks<kT, kSmall>(k, h, stiff_h, m, s, s6, sRt, rsRt);
-  MANYRODS_UNROLL_ALL
-  for (int i = 0; i < 6; ++i) {
-    out.carry[i][l] = T(0);
-    out.carry[6 + i][l] = rsRt[i];
+// ψ = log R and γ exactly as voronoi_strain<kSmall> computes them; returns
+// true where kSmall and the rotation is beyond the small path's range (the
+// caller redoes that lane with kSmall = false, which gives bit-for-bit the
+// same values inside the range).
+template <bool kSmall, class T>
+MANYRODS_HD inline bool joint_log(const mat3<T>& R, vec3<T>& psi, T& gamma) {
+  T theta, s, c;
+  if constexpr (kSmall) {
+    psi = rotation_log_small(R, theta, s, c);
+    gamma = inverse_right_jacobian_gamma_small(theta * theta);
+    return !((c >= T(kSmallRotationCos)) & (theta * theta <= T(kSmallRotation2)));
+  } else {
+    psi = rotation_log(R, theta, s, c);
+    gamma = inverse_right_jacobian_gamma(theta, s, c);
+    return false;
   }
 }
 
-// Assembles cell c (slot k) of lane l into `cur` from the block `prev`
-// carried over from cell c−1: A_c (lower), U_c, y_c, the inverse masses, and
-// the next cell's carry. kLast: the last cell (element and joint k+1 are
-// ghosts, see the header; no U, no carry).
+// The joint's weights v̂ = h C_M τ / D̂ (τ as solve_tau: stiff_h on twist).
+template <Terms kT, class T>
+MANYRODS_HD inline void joint_weights(T h, T stiff_h, T d, vec3<T> cm, vec3<T> tau_kv, T v[3]) {
+  const T hd = h / d;
+  const vec3<T> t = kT.kelvin_voigt ? tau_kv : vec3<T>{T(0), T(0), T(0)};
+  v[0] = kT.bend ? hd * cm.x * t.x : T(0);
+  v[1] = kT.bend ? hd * cm.y * t.y : T(0);
+  v[2] = kT.twist ? hd * cm.z * (t.z + stiff_h) : T(0);
+}
+
+// Assembles cell c of lane l into `cur` from the packed inputs P (cells c
+// and c+1) and the block `prev` carried over from cell c−1: A_c (lower), U_c,
+// y_c, the inverse masses, and the next cell's carry. kLast: the last cell
+// (its element and joint k+1 are ghosts, see the header; no U, no carry).
 template <Terms kT, bool kSmall, bool kLast, int W, class T>
-MANYRODS_HD inline void assemble_lane(int l, int k, T h, T stiff_h, const ModelView<T>& m,
-                                      const ConstStateView<T>& s, const Cell<T, W>& prev, Cell<T, W>& cur) {
-  const T mass[6] = {m.node_mass[k],       m.node_mass[k],       m.node_mass[k],
-                     m.elem_inertia[0][k], m.elem_inertia[1][k], m.elem_inertia[2][k]};
-  const T u[6] = {s.node_v[0][k], s.node_v[1][k], s.node_v[2][k],
-                  s.elem_w[0][k], s.elem_w[1][k], s.elem_w[2][k]};
-  const T minv[4] = {m.node_inv_mass[k], m.elem_inv_inertia[0][k], m.elem_inv_inertia[1][k],
-                     m.elem_inv_inertia[2][k]};
+MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P, const Cell<T, W>& prev,
+                                      Cell<T, W>& cur) {
+  const int p = c * W + l, q = p + W;  // this cell, the next one
+  auto at3 = [&](int a, int i) { return vec3<T>{P[a][i], P[a + 1][i], P[a + 2][i]}; };
+  const T mass[6] = {P[kMass][p], P[kMass][p], P[kMass][p], P[kInertia][p], P[kInertia + 1][p], P[kInertia + 2][p]};
+  const T u[6] = {P[kV][p], P[kV + 1][p], P[kV + 2][p], P[kOmega][p], P[kOmega + 1][p], P[kOmega + 2][p]};
+  const T minv[4] = {P[kInvMass][p], P[kInvInertia][p], P[kInvInertia + 1][p], P[kInvInertia + 2][p]};
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 4; ++i) cur.minv[i][l] = minv[i];
   MANYRODS_UNROLL_ALL
@@ -201,44 +223,52 @@ MANYRODS_HD inline void assemble_lane(int l, int k, T h, T stiff_h, const ModelV
     for (int i = 0; i < 3; ++i)
       MANYRODS_UNROLL_ALL
       for (int j = 0; j < 3; ++j) cur.A[lt(3 + i, j)][l] = T(0);
-    return;
   } else {
-    // element k: ŵ = h C_F τ / l̂, P = diag(ŵ) Q, a = Q e
-    const ElementStrain<T> es = element_strain(k, m, s);
-    const T hl = h / m.elem_rest_length[k];
-    const vec3<T> cf = load3(m.elem_stiffness, k);
-    const vec3<T> tau = viscous_detail::solve_tau<kT>(m.elem_tau, k, stiff_h, false);
-    const T w[3] = {kT.shear ? hl * cf.x * tau.x : T(0), kT.shear ? hl * cf.y * tau.y : T(0),
-                    kT.stretch ? hl * cf.z * tau.z : T(0)};
-    const T* Q = es.Q.m;
-    const vec3<T> a = es.Qe;
-    T P[9];
+    // element k (element_strain): a = Q e; ŵ = h C_F τ / l̂, P = diag(ŵ) Q
+    mat3<T> Qk, Qn;
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 9; ++i) {
+      Qk.m[i] = P[kQ + i][p];
+      Qn.m[i] = P[kQ + i][q];
+    }
+    const vec3<T> a = mul(Qk, at3(kX, q) - at3(kX, p));
+    const T hl = h / P[kL][p];
+    const vec3<T> cf = at3(kCF, p);
+    const vec3<T> tk = kT.kelvin_voigt ? at3(kTauF, p) : vec3<T>{T(0), T(0), T(0)};
+    const T w[3] = {kT.shear ? hl * cf.x * (tk.x + stiff_h) : T(0), kT.shear ? hl * cf.y * (tk.y + stiff_h) : T(0),
+                    kT.stretch ? hl * cf.z * (tk.z + stiff_h) : T(0)};
+    const T* Q = Qk.m;
+    T Pq[9];
     MANYRODS_UNROLL_ALL
     for (int r = 0; r < 3; ++r)
       MANYRODS_UNROLL_ALL
-      for (int j = 0; j < 3; ++j) P[3 * r + j] = w[r] * Q[3 * r + j];
+      for (int j = 0; j < 3; ++j) Pq[3 * r + j] = w[r] * Q[3 * r + j];
     T N[9];  // Qᵀ P, symmetric
     MANYRODS_UNROLL_ALL
     for (int i = 0; i < 3; ++i)
       MANYRODS_UNROLL_ALL
       for (int j = 0; j <= i; ++j) {
-        N[3 * i + j] = Q[i] * P[j] + Q[3 + i] * P[3 + j] + Q[6 + i] * P[6 + j];
+        N[3 * i + j] = Q[i] * Pq[j] + Q[3 + i] * Pq[3 + j] + Q[6 + i] * Pq[6 + j];
         N[3 * j + i] = N[3 * i + j];
       }
     T X[9];  // [a]× P
     MANYRODS_UNROLL_ALL
     for (int j = 0; j < 3; ++j) {
-      X[j] = a.y * P[6 + j] - a.z * P[3 + j];
-      X[3 + j] = a.z * P[j] - a.x * P[6 + j];
-      X[6 + j] = a.x * P[3 + j] - a.y * P[j];
+      X[j] = a.y * Pq[6 + j] - a.z * Pq[3 + j];
+      X[3 + j] = a.z * Pq[j] - a.x * Pq[6 + j];
+      X[6 + j] = a.x * Pq[3 + j] - a.y * Pq[j];
     }
     // [a]×ᵀ diag(ŵ) [a]× (lower)
     const T xx = a.x * a.x, yy = a.y * a.y, zz = a.z * a.z;
     const T Mw[6] = {w[1] * zz + w[2] * yy, -(w[2] * a.x * a.y), w[0] * zz + w[2] * xx,
                      -(w[1] * a.x * a.z),   -(w[0] * a.y * a.z), w[0] * yy + w[1] * xx};
-    // joint k+1
-    T s6[6], sRt[9], rsRt[6];
-    cur.general[l] = joint_blocks<kT, kSmall>(k + 1, h, stiff_h, m, s, s6, sRt, rsRt);
+    // joint k+1 (voronoi_strain): R = Q_{k+1} Q_kᵀ
+    const mat3<T> R = mul_transpose(Qn, Qk);
+    vec3<T> psi;
+    T gamma, v[3], s6[6], sRt[9], rsRt[6];
+    cur.general[l] = joint_log<kSmall>(R, psi, gamma);
+    joint_weights<kT>(h, stiff_h, P[kD][q], at3(kCM, q), at3(kTauM, q), v);
+    joint_blocks(R, psi, gamma, v, s6, sRt, rsRt);
     MANYRODS_UNROLL_ALL
     for (int i = 0; i < 3; ++i)
       MANYRODS_UNROLL_ALL
@@ -253,8 +283,7 @@ MANYRODS_HD inline void assemble_lane(int l, int k, T h, T stiff_h, const ModelV
       }
     // U, with the rows of this cell's and the columns of the next cell's
     // fixed unknowns zeroed (as viscous_implicit_rod does)
-    const T nminv[4] = {m.node_inv_mass[k + 1], m.elem_inv_inertia[0][k + 1], m.elem_inv_inertia[1][k + 1],
-                        m.elem_inv_inertia[2][k + 1]};
+    const T nminv[4] = {P[kInvMass][q], P[kInvInertia][q], P[kInvInertia + 1][q], P[kInvInertia + 2][q]};
     MANYRODS_UNROLL_ALL
     for (int i = 0; i < 3; ++i)
       MANYRODS_UNROLL_ALL
@@ -381,11 +410,10 @@ MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cel
   }
 }
 
-// Back substitution for cell c of lane l: u_c = g_c − G_c u_{c+1}; writes
-// the rod's velocities. kLast: u_c = g_c.
+// Back substitution for cell c of lane l: u_c = g_c − G_c u_{c+1}
+// (kLast: u_c = g_c), written over g_c (which it no longer needs).
 template <bool kLast, int W, class T>
-MANYRODS_HD inline void back_lane(int l, int c, int k, T (&next)[6][W], const StateView<T>& s,
-                                  const ImplicitScratchView<T>& sc) {
+MANYRODS_HD inline void back_lane(int l, int c, T (&next)[6][W], const ImplicitScratchView<T>& sc) {
   const int at = c * W + l;
   T x[6];
   MANYRODS_UNROLL_ALL
@@ -398,69 +426,146 @@ MANYRODS_HD inline void back_lane(int l, int c, int k, T (&next)[6][W], const St
     x[i] = v;
   }
   MANYRODS_UNROLL_ALL
-  for (int d = 0; d < 3; ++d) {
-    s.node_v[d][k] = x[d];
-    s.elem_w[d][k] = x[3 + d];
+  for (int i = 0; i < 6; ++i) {
+    sc.g[i][at] = x[i];
+    next[i][l] = x[i];
   }
-  MANYRODS_UNROLL_ALL
-  for (int i = 0; i < 6; ++i) next[i][l] = x[i];
 }
+
+// dst[c·W + l] = src[l][c] for c in [c0, c1): a W × cells transpose, written
+// so that the compiler vectorizes it along c with contiguous loads, in-register
+// permutes and contiguous stores (gathers would cost several times more).
+template <int W, class T>
+MANYRODS_HD inline void pack_lanes(T* dst, const T* const (&src)[W], int c0, int c1) {
+  for (int c = c0; c < c1; ++c) {
+    MANYRODS_UNROLL_ALL
+    for (int l = 0; l < W; ++l) dst[c * W + l] = src[l][c];
+  }
+}
+// dst[l][c] = src[c·W + l] for c in [c0, c1): the inverse.
+template <int W, class T>
+MANYRODS_HD inline void unpack_lanes(T* const (&dst)[W], const T* src, int c0, int c1) {
+  for (int c = c0; c < c1; ++c) {
+    MANYRODS_UNROLL_ALL
+    for (int l = 0; l < W; ++l) dst[l][c] = src[c * W + l];
+  }
+}
+
+// The packed value of a cell before a lane's rod starts (see
+// viscous_implicit_lanes): at rest, no stiffness, identity frame, unit
+// lengths, zero inverse masses (every unknown fixed).
+template <class T>
+MANYRODS_HD inline T idle_value(int a) {
+  if (a == kQ || a == kQ + 4 || a == kQ + 8 || a == kL || a == kD) return T(1);
+  return T(0);
+}
+
 }  // namespace lanes_detail
-// Backward-Euler viscous update of W rods with `cells` cells each, rod l's
-// cells at slots [first[l], first[l] + cells) — what viscous_implicit_rod
-// does for each of them, to round-off. stiff_h[l]: h for a stiff rod, 0
-// otherwise (see kernels/viscous_implicit.h). Velocities in `s` are u⁻ on
-// entry, u⁺ on exit. `sc` holds 42·W·cells values (see the header).
+
+// Backward-Euler viscous update of W rods, rod l with cells[l] cells at
+// slots [first[l], first[l] + cells[l]) — what viscous_implicit_rod does for
+// each of them, to round-off. stiff_h[l]: h for a stiff rod, 0 otherwise (see
+// kernels/viscous_implicit.h). Velocities in `s` are u⁻ on entry, u⁺ on exit.
+// `sc` holds 42·W·(max(cells) + 1) values (see the header). Two lanes may
+// hold the same rod (to fill a group): they compute the same values and write
+// them to the same slots, after every read.
+//
+// The group runs n = max(cells) + 1 cells, the rods aligned at their tips:
+// lane l's cell j is the group's cell c = n − cells[l] + j. Before its rod
+// starts, every lane runs at least one cell whose unknowns are all fixed
+// (identity rows, no coupling): its rod's root ghost slot (clamp frame, zero
+// stiffness and masses), whose joint to the next cell is the rod's root joint,
+// and before that, for shorter rods, idle cells (idle_value). Each rod's own
+// cells therefore see the same arithmetic in any group (the root joint's
+// block always arrives through the ghost cell, with exact zeros around it):
+// a rod's result does not depend on the group it is in, bit for bit
+// (tests/test_implicit_lanes.cpp). The ghost cell costs 1/cells of the work.
+//
+// Stages, each a loop over the lanes:
+//   0. pack: the 40 per-cell inputs of the W rods (node x, v; element ω, Q,
+//      l̂, C_F, τ; joint D̂, C_M, τ; masses and inverse masses) are transposed
+//      into the elimination buffer, value a of cell c at P[a][c·W + l] (G's
+//      36 arrays and 4 of g's; cell c's inputs are read by cells c and c−1
+//      before cell c's G and g overwrite them);
+//   1. per cell, forwards: assemble (small-rotation path; flagged lanes again
+//      with the general path), eliminate, factor, G_c and g_c;
+//   2. per cell, backwards: u_c over g_c; then unpacked into node_v, elem_w.
 template <Terms kT, int W, class T>
-MANYRODS_HD inline void viscous_implicit_lanes(const int* first, int cells, T h, const T* stiff_h,
+MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cells, T h, const T* stiff_h,
                                                const ModelView<T>& m, const StateView<T>& s,
                                                const ImplicitScratchView<T>& sc) {
   using namespace lanes_detail;
   // Local copies of the views: no store in the lane loops can alias them, so
   // their pointers stay in registers (as in host/launch.h).
   const ModelView<T> mv = m;
-  const StateView<T> sv = s;
   const ConstStateView<T> cs = as_const(s);
   const ImplicitScratchView<T> scv = sc;
-  Cell<T, W> cell[2];  // cell c in cell[c & 1], its predecessor in the other
-  int f[W];
+  T* P[42];
+  for (int i = 0; i < 36; ++i) P[i] = scv.G[i];
+  for (int i = 0; i < 6; ++i) P[36 + i] = scv.g[i];
+  int f[W], start[W];  // first slot; group cell of the rod's cell 0
   T sh[W];
-  for (int l = 0; l < W; ++l) f[l] = first[l], sh[l] = stiff_h[l];
-  // Redoes the lanes whose joints turn by more than the small-rotation path
-  // covers (rare): the same code with the general strain.
+  // n: the longest rod's cells plus its root ghost cell
+  int n = 0;
+  for (int l = 0; l < W; ++l) n = cells[l] > n ? cells[l] : n;
+  n += 1;
+  int all_real = 0;  // from this cell on, every lane is in its rod
+  for (int l = 0; l < W; ++l) {
+    f[l] = first[l];
+    sh[l] = stiff_h[l];
+    start[l] = n - cells[l];  // ≥ 1
+    all_real = start[l] > all_real ? start[l] : all_real;
+  }
+  const int all_started = all_real - 1;  // … or in its root ghost slot
+  // 0. pack: group cell c of lane l is slot f[l] − start[l] + c
+  {
+    const T* const in[kPacked] = {
+        cs.node_x[0],        cs.node_x[1],        cs.node_x[2],        cs.node_v[0],        cs.node_v[1],
+        cs.node_v[2],        cs.elem_w[0],        cs.elem_w[1],        cs.elem_w[2],        cs.elem_Q[0],
+        cs.elem_Q[1],        cs.elem_Q[2],        cs.elem_Q[3],        cs.elem_Q[4],        cs.elem_Q[5],
+        cs.elem_Q[6],        cs.elem_Q[7],        cs.elem_Q[8],        mv.elem_rest_length, mv.elem_stiffness[0],
+        mv.elem_stiffness[1], mv.elem_stiffness[2], mv.elem_tau[0],    mv.elem_tau[1],      mv.elem_tau[2],
+        mv.vor_rest_length,  mv.vor_stiffness[0], mv.vor_stiffness[1], mv.vor_stiffness[2], mv.vor_tau[0],
+        mv.vor_tau[1],       mv.vor_tau[2],       mv.node_mass,        mv.elem_inertia[0],  mv.elem_inertia[1],
+        mv.elem_inertia[2],  mv.node_inv_mass,    mv.elem_inv_inertia[0], mv.elem_inv_inertia[1],
+        mv.elem_inv_inertia[2]};
+    for (int a = 0; a < kPacked; ++a) {
+      const T* src[W];
+      for (int l = 0; l < W; ++l) src[l] = in[a] + (f[l] - start[l]);
+      pack_lanes<W>(P[a], src, all_started, n);
+      for (int c = 0; c < all_started; ++c)  // lanes not yet in their rods
+        for (int l = 0; l < W; ++l) P[a][c * W + l] = c >= start[l] - 1 ? src[l][c] : idle_value<T>(a);
+    }
+  }
+  Cell<T, W> cell[2];  // cell c in cell[c & 1], its predecessor in the other
   auto any_general = [](const Cell<T, W>& x) {
     int any = 0;
     for (int l = 0; l < W; ++l) any |= x.general[l];
     return any != 0;
   };
-  {
-    Cell<T, W>& root = cell[1];
-    MANYRODS_LANES
-    for (int l = 0; l < W; ++l) root_lane<kT, true>(l, f[l], h, sh[l], mv, cs, root);
-    if (any_general(root))
-      for (int l = 0; l < W; ++l)
-        if (root.general[l]) root_lane<kT, false>(l, f[l], h, sh[l], mv, cs, root);
-  }
-  for (int c = 0; c < cells; ++c) {
+  for (int i = 0; i < 12; ++i)  // nothing is carried into cell 0 (idle or root ghost in every lane)
+    for (int l = 0; l < W; ++l) cell[1].carry[i][l] = T(0);
+  // 1. forward elimination
+  for (int c = 0; c < n; ++c) {
     const Cell<T, W>& prev = cell[(c + 1) & 1];
     Cell<T, W>& cur = cell[c & 1];
-    if (c + 1 < cells) {
+    if (c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) assemble_lane<kT, true, false>(l, f[l] + c, h, sh[l], mv, cs, prev, cur);
+      for (int l = 0; l < W; ++l) assemble_lane<kT, true, false>(l, c, h, sh[l], P, prev, cur);
       if (any_general(cur))
         for (int l = 0; l < W; ++l)
-          if (cur.general[l]) assemble_lane<kT, false, false>(l, f[l] + c, h, sh[l], mv, cs, prev, cur);
+          if (cur.general[l]) assemble_lane<kT, false, false>(l, c, h, sh[l], P, prev, cur);
     } else {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) assemble_lane<kT, true, true>(l, f[l] + c, h, sh[l], mv, cs, prev, cur);
+      for (int l = 0; l < W; ++l) assemble_lane<kT, true, true>(l, c, h, sh[l], P, prev, cur);
     }
-    if (c == 0 && c + 1 < cells) {
+    if (c == 0 && c + 1 < n) {
       MANYRODS_LANES
       for (int l = 0; l < W; ++l) eliminate_lane<true, false>(l, c, prev, cur, scv);
     } else if (c == 0) {
       MANYRODS_LANES
       for (int l = 0; l < W; ++l) eliminate_lane<true, true>(l, c, prev, cur, scv);
-    } else if (c + 1 < cells) {
+    } else if (c + 1 < n) {
       MANYRODS_LANES
       for (int l = 0; l < W; ++l) eliminate_lane<false, false>(l, c, prev, cur, scv);
     } else {
@@ -468,12 +573,22 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, int cells, T h,
       for (int l = 0; l < W; ++l) eliminate_lane<false, true>(l, c, prev, cur, scv);
     }
   }
+  // 2. back substitution, then u⁺ out to the rods (their own cells only)
   T next[6][W];
   MANYRODS_LANES
-  for (int l = 0; l < W; ++l) back_lane<true>(l, cells - 1, f[l] + cells - 1, next, sv, scv);
-  for (int c = cells - 2; c >= 0; --c) {
+  for (int l = 0; l < W; ++l) back_lane<true>(l, n - 1, next, scv);
+  for (int c = n - 2; c >= 0; --c) {
     MANYRODS_LANES
-    for (int l = 0; l < W; ++l) back_lane<false>(l, c, f[l] + c, next, sv, scv);
+    for (int l = 0; l < W; ++l) back_lane<false>(l, c, next, scv);
+  }
+  for (int d = 0; d < 6; ++d) {
+    T* const base = d < 3 ? s.node_v[d] : s.elem_w[d - 3];
+    T* dst[W];
+    for (int l = 0; l < W; ++l) dst[l] = base + (f[l] - start[l]);
+    unpack_lanes<W>(dst, scv.g[d], all_real, n);
+    for (int c = 0; c < all_real; ++c)
+      for (int l = 0; l < W; ++l)
+        if (c >= start[l]) dst[l][c] = scv.g[d][c * W + l];
   }
 }
 

@@ -4,9 +4,12 @@
 //   * kernel against kernel on random curved, moving rods: clamped and free
 //     roots, stiff rods (stiff_h = h), an undamped lane (τ = 0), joints that
 //     turn by more than the small-rotation range (the general-path fallback),
-//     in float and double, with and without the Kelvin–Voigt term;
-//   * a batch of mixed lengths (full lane groups, remainders solved rod by
-//     rod, undamped rods, a rod longer than a segment) stepped with step_n
+//     lanes of equal and of different lengths, in float and double, with and
+//     without the Kelvin–Voigt term; and a rod's result is the same bit for
+//     bit whatever group (lengths, other rods, copies of itself) it is in;
+//   * a batch of mixed lengths (equal-length groups, mixed-length groups,
+//     a last group filled with copies, undamped rods, a rod longer than a
+//     segment: the scalar kernel) stepped with step_n
 //     against the same stages with the scalar solve, step by step; and
 //     step_n on 1 and 2 threads bit for bit.
 //
@@ -181,10 +184,10 @@ void compare_rod(Checker& ck, const RodBatch<T>& got, const RodBatch<T>& want, i
   }
 }
 
-// W random rods of `elements` elements: lane 0 clamped, lane 1 free, lane 2
-// undamped, lane 3 stiff, lane 4 with joints up to 2.5 rad (general path),
-// the others random (clamped or not, stiff or not, turns up to 0.4 rad).
-std::vector<RodSpec> lane_rods(std::mt19937& rng, int W, int elements) {
+// W random rods: lane 0 clamped, lane 1 free, lane 2 undamped, lane 3 stiff,
+// lane 4 with joints up to 2.5 rad (general path), the others random (clamped
+// or not, stiff or not, turns up to 0.4 rad). Lane l has elements[l] elements.
+std::vector<RodSpec> lane_rods(std::mt19937& rng, int W, const std::vector<int>& elements) {
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<RodSpec> rods;
   for (int l = 0; l < W; ++l) {
@@ -192,47 +195,78 @@ std::vector<RodSpec> lane_rods(std::mt19937& rng, int W, int elements) {
     const bool stiff = l == 3 || (l > 4 && u(rng) < 0.3);
     const double tau = l == 2 ? 0 : std::pow(10.0, -3 + 2 * u(rng));  // 1e-3 … 0.1 s
     const double turn = l == 4 ? 2.5 : 0.4;
-    rods.push_back(random_rod(rng, elements, l == 1 ? false : clamped, tau, stiff, turn));
+    rods.push_back(random_rod(rng, elements[l], l == 1 ? false : clamped, tau, stiff, turn));
   }
   return rods;
 }
 
+// The lanes kernel on batch b, always through this one compiled copy: two
+// inlined copies may contract a·b + c into FMAs differently (host/step.h
+// calls it from one place too).
+template <Terms kT, int W, class T>
+__attribute__((noinline)) void lanes_solve(RodBatch<T>& b, const int* first, const int* cells, T h,
+                                           const T* stiff_h) {
+  viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, b.model_view(), b.state_view(),
+                                b.implicit_scratch_view(0, 0));
+}
+
+// `mixed`: lanes of 3 different lengths (elements, elements − 2,
+// elements − 5), else all `elements` long.
 template <Terms kT, class T, int W>
-void kernel_vs_scalar(unsigned seed, int elements, double h) {
+void kernel_vs_scalar(unsigned seed, int elements, double h, bool mixed = false) {
   std::mt19937 rng(seed);
-  RodBatch<T> b = build_batch<T>(lane_rods(rng, W, elements));
+  std::vector<int> n(W, elements);
+  if (mixed)
+    for (int l = 0; l < W; ++l) n[l] = elements - (l % 3 == 1 ? 2 : l % 3 == 2 ? 5 : 0);
+  RodBatch<T> b = build_batch<T>(lane_rods(rng, W, n));
   RodBatch<T> scalar = b, lanes = b;
   scalar.reserve_implicit_scratch(1);
   lanes.reserve_implicit_scratch(1);
-  int first[W];
+  int first[W], cells[W];
   T stiff_h[W];
   for (int l = 0; l < W; ++l) {
     first[l] = b.rods[l].offset + 1;
+    cells[l] = n[l] + 1;
     stiff_h[l] = b.rods[l].stiff_implicit ? T(h) : T(0);
-    viscous_implicit_rod<kT>(first[l], elements + 1, T(h), stiff_h[l], scalar.model_view(), scalar.state_view(),
+    viscous_implicit_rod<kT>(first[l], cells[l], T(h), stiff_h[l], scalar.model_view(), scalar.state_view(),
                              scalar.implicit_scratch_view(0, 0));
   }
-  viscous_implicit_lanes<kT, W>(first, elements + 1, T(h), stiff_h, lanes.model_view(), lanes.state_view(),
-                                lanes.implicit_scratch_view(0, 0));
+  lanes_solve<kT, W>(lanes, first, cells, T(h), stiff_h);
   Checker ck(std::string(sizeof(T) == 4 ? "float" : "double") + " W=" + std::to_string(W) +
-                 (kT.kelvin_voigt ? " KV" : " stiff only") + " h=" + std::to_string(h),
+                 (kT.kelvin_voigt ? " KV" : " stiff only") + (mixed ? " mixed" : "") + " h=" + std::to_string(h),
              unit_roundoff<T>(), kLimit);
   double moved = 0;  // the solve must do something: u⁺ ≠ u⁻ on damped lanes
   for (int l = 0; l < W; ++l) {
     compare_rod(ck, lanes, scalar, l, solve_scale<kT>(b, l, T(h), stiff_h[l]), "lane " + std::to_string(l));
-    for (int c = 0; c <= elements; ++c)
+    for (int c = 0; c < cells[l]; ++c)
       moved = std::max(moved, std::abs(double(scalar.state.node_v[0][first[l] + c]) -
                                        double(b.state.node_v[0][first[l] + c])));
   }
   EXPECT_GT(moved, 1e-4);
   // the undamped, non-stiff lane (lane 2) with the Kelvin–Voigt term: A = M,
-  // u⁺ = u⁻ (up to the mass's rounding in M u⁻ / M)
+  // u⁺ = u⁻ up to the roundings of M u⁻ and of the Cholesky solve (≤ 6)
   if (!b.rods[2].stiff_implicit)
-    for (int c = 0; c < elements; ++c) {
+    for (int c = 0; c < n[2]; ++c) {
       const int k = first[2] + c;
       EXPECT_NEAR(double(lanes.state.elem_w[0][k]), double(b.state.elem_w[0][k]),
-                  4 * unit_roundoff<T>() * std::abs(double(b.state.elem_w[0][k])) + 1e-30);
+                  8 * unit_roundoff<T>() * std::abs(double(b.state.elem_w[0][k])) + 1e-30);
     }
+  // a rod's result does not depend on its group: rod 4 (and rod 1, shorter
+  // in a mixed group) alone in every lane (copies), bit for bit
+  for (int r : {1, 4}) {
+    RodBatch<T> alone = b;
+    alone.reserve_implicit_scratch(1);
+    int f1[W], c1[W];
+    T h1[W];
+    for (int l = 0; l < W; ++l) f1[l] = first[r], c1[l] = cells[r], h1[l] = stiff_h[r];
+    lanes_solve<kT, W>(alone, f1, c1, T(h), h1);
+    for (int c = 0; c < cells[r]; ++c)
+      for (int d = 0; d < 3; ++d) {
+        const int k = first[r] + c;
+        ASSERT_EQ(alone.state.node_v[d][k], lanes.state.node_v[d][k]) << "rod " << r << " cell " << c;
+        ASSERT_EQ(alone.state.elem_w[d][k], lanes.state.elem_w[d][k]) << "rod " << r << " cell " << c;
+      }
+  }
 }
 
 }  // namespace
@@ -241,18 +275,22 @@ TEST(ImplicitLanes, KernelMatchesScalarDouble) {
   for (unsigned seed = 1; seed <= 4; ++seed)
     for (double h : {1e-5, 1e-3}) {
       kernel_vs_scalar<kAllTerms, double, 8>(seed, 9, h);
-      kernel_vs_scalar<kAllTerms, double, 16>(seed + 10, 5, h);
+      kernel_vs_scalar<kAllTerms, double, 16>(seed + 10, 6, h);
+      kernel_vs_scalar<kAllTerms, double, 8>(seed + 20, 11, h, true);
     }
-  kernel_vs_scalar<kNoKV, double, 8>(21, 12, 1e-4);  // stiff rods only (Kelvin–Voigt explicit or off)
+  kernel_vs_scalar<kNoKV, double, 8>(31, 12, 1e-4);  // stiff rods only (Kelvin–Voigt explicit or off)
+  kernel_vs_scalar<kNoKV, double, 8>(32, 12, 1e-4, true);
 }
 
 TEST(ImplicitLanes, KernelMatchesScalarFloat) {
   for (unsigned seed = 1; seed <= 4; ++seed)
     for (double h : {1e-5, 1e-3}) {
       kernel_vs_scalar<kAllTerms, float, 16>(seed, 9, h);
-      kernel_vs_scalar<kAllTerms, float, 8>(seed + 10, 5, h);
+      kernel_vs_scalar<kAllTerms, float, 8>(seed + 10, 6, h);
+      kernel_vs_scalar<kAllTerms, float, 16>(seed + 20, 11, h, true);
     }
-  kernel_vs_scalar<kNoKV, float, 16>(21, 12, 1e-4);
+  kernel_vs_scalar<kNoKV, float, 16>(31, 12, 1e-4);
+  kernel_vs_scalar<kNoKV, float, 16>(32, 12, 1e-4, true);
 }
 
 namespace {
