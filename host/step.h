@@ -126,7 +126,9 @@ void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
 #endif
 
 // Rods per lane group of the implicit solve (kernels/viscous_implicit_lanes.h):
-// one 512-bit vector of float or double (measured, bench/RESULTS.md).
+// one 512-bit vector of float or double. Measured per rod and cell (hair,
+// 1 thread, this machine): float 80 ns at 16 lanes, 85 ns at 8; double
+// 141 ns at 8 lanes, 172 ns at 16; the scalar kernel 1,000–1,200 ns.
 template <class T>
 inline constexpr int kImplicitLanes = sizeof(T) == 4 ? 16 : 8;
 
@@ -142,13 +144,14 @@ inline constexpr int kImplicitLanes = sizeof(T) == 4 ? 16 : 8;
 // group, run for the longest one's cells (the shorter ones idle first, see
 // the kernel: equal counts waste nothing, and a segment of equal rods — hair,
 // cables — has only equal groups). A last group of fewer rods is filled with
-// copies of its last rod; a group of one rod, or one too long for the
-// thread's buffer (kLanes × (cells + 1) > a segment), is solved by the scalar kernel.
-// A rod's lanes result does not depend on its group (the kernel's idle cells
-// add exact zeros), and the groups depend only on the rods of the segment (in
-// chunks of kChunk rods), never on the thread count, so neither do the
-// results. Lanes and scalar kernel agree to round-off, not bit for bit
-// (tests/test_implicit_lanes.cpp).
+// copies of its last rod. Where kLanes lanes of a rod do not fit the thread's
+// buffer (kLanes × (cells + 1) > a segment's slots), kLanes/2 lanes run it
+// (the kernel at half width); a group of one rod, or one too long for that,
+// is solved by the scalar kernel. The groups depend only on the rods of the
+// segment (in chunks of kChunk rods), and a rod's result only on the kernel
+// that solves it (not on the other rods of its group: the kernel's idle and
+// ghost cells add exact zeros), never on the thread count. Lanes and scalar
+// kernel agree to round-off, not bit for bit (tests/test_implicit_lanes.cpp).
 //
 // `thread` picks the elimination buffer (reserve_implicit_scratch first);
 // every solve uses it from its start. With ex.threads > 1 (a segment stepped
@@ -172,10 +175,17 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
         const int ex_ = b.rods[x].elements, ey = b.rods[y].elements;
         return ex_ != ey ? ex_ > ey : x < y;
       });
-    // items: runs of `order`, a group (2 … W rods) or a single rod
+    // items: runs of `order`, a group of 2 … W rods (of 2 … W/2 rods for the
+    // half-width kernel when W lanes of the longest do not fit the buffer) or
+    // a single rod
+    constexpr int W2 = W >= 4 ? W / 2 : 1;
+    bool half[kChunk];
     for (int a = 0; a < n;) {
       const int cells = b.rods[order[a]].elements + 1;
-      const int count = W * (cells + 1) <= b.scratch.visc_cells ? std::min(W, n - a) : 1;
+      const bool fits = W * (cells + 1) <= b.scratch.visc_cells;
+      const bool fits_half = W2 > 1 && W2 * (cells + 1) <= b.scratch.visc_cells;
+      const int count = fits ? std::min(W, n - a) : fits_half ? std::min(W2, n - a) : 1;
+      half[items] = !fits;
       item_begin[items++] = a;
       a += count;
     }
@@ -196,6 +206,11 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
           cells[j] = rod.elements + 1;
           stiff_h[j] = rod.stiff_implicit ? h : T(0);
         }
+        if constexpr (W2 > 1)
+          if (half[item]) {
+            viscous_implicit_lanes<kT, W2>(first, cells, h, stiff_h, m, s, sc);
+            return;
+          }
         viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, m, s, sc);
       } else {
         const RodInfo& rod = b.rods[rods[0]];
