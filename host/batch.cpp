@@ -333,8 +333,8 @@ LoadsView<T> RodBatch<T>::loads_view() const {
 }
 
 template <class T>
-void RodBatch<T>::reserve_implicit_scratch(int threads) {
-  int cells = 0;
+void RodBatch<T>::reserve_implicit_scratch(int threads, int min_cells) {
+  int cells = min_cells;
   for (const Segment& r : segments) cells = std::max(cells, r.end - r.begin);
   threads = std::max(threads, 1);
   if (cells <= scratch.visc_cells && threads <= scratch.visc_threads) return;

@@ -14,6 +14,7 @@
 // backward Euler after the elastic kick (stable for any τ).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -23,6 +24,7 @@
 
 #include "host/launch.h"
 #include "kernels/energy.h"
+#include "kernels/viscous_implicit_lanes.h"
 #include "manyrods/batch.h"
 
 namespace manyrods {
@@ -133,29 +135,117 @@ void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
     if (!r.fused) run(r, ex, 0);
 }
 
-// Stage 3b on the rods of segment r, rod by rod: the backward-Euler solve
+#if defined(__GNUC__)
+#define MANYRODS_NOINLINE __attribute__((noinline))
+#else
+#define MANYRODS_NOINLINE
+#endif
+
+// Rods per lane group of the implicit solve (kernels/viscous_implicit_lanes.h):
+// one 512-bit vector of float or double. Measured per rod and cell (hair,
+// 1 thread, this machine): float 80 ns at 16 lanes, 85 ns at 8; double
+// 141 ns at 8 lanes, 172 ns at 16; the scalar kernel 1,000–1,200 ns.
+template <class T>
+inline constexpr int kImplicitLanes = sizeof(T) == 4 ? 16 : 8;
+
+// Stage 3b on the rods of segment r: the backward-Euler solve
 // (kernels/viscous_implicit.h) of every rod that needs one: damped rods when
 // kT.kelvin_voigt (the Kelvin–Voigt term is solved here), stiff rods
 // (RodSpec::stiff_implicit) always. Undamped, non-stiff rods pay nothing.
-// `thread` picks the elimination buffer (reserve_implicit_scratch first).
-template <Terms kT, class T>
+//
+// The rods are solved kLanes at a time, one per SIMD lane
+// (viscous_implicit_lanes; kLanes = 0: kImplicitLanes<T>; 1: every rod by the
+// scalar viscous_implicit_rod). Groups are formed from the rods sorted by
+// element count (longest first, then by index): the next kLanes rods form a
+// group, run for the longest one's cells (the shorter ones idle first, see
+// the kernel: equal counts waste nothing, and a segment of equal rods — hair,
+// cables — has only equal groups). A last group of fewer rods is filled with
+// copies of its last rod. Where kLanes lanes of a rod do not fit the thread's
+// buffer (kLanes × (cells + 1) > a segment's slots), kLanes/2 lanes run it
+// (the kernel at half width); a group of one rod, or one too long for that,
+// is solved by the scalar kernel. The groups depend only on the rods of the
+// segment (in chunks of kChunk rods), and a rod's result only on the kernel
+// that solves it (not on the other rods of its group: the kernel's idle and
+// ghost cells add exact zeros), never on the thread count. Lanes and scalar
+// kernel agree to round-off, not bit for bit (tests/test_implicit_lanes.cpp).
+//
+// `thread` picks the elimination buffer (reserve_implicit_scratch first);
+// every solve uses it from its start. With ex.threads > 1 (a segment stepped
+// by all threads) the groups are shared out, each thread using its own buffer.
+template <Terms kT, int kLanes = 0, class T>
 void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
+  constexpr int W = kLanes > 0 ? kLanes : kImplicitLanes<T>;
+  constexpr int kChunk = 1024;
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
-#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 16) if (ex.threads > 1 && r.rod_end - r.rod_begin > 1)
-  for (int i = r.rod_begin; i < r.rod_end; ++i) {
-    const RodInfo& rod = b.rods[i];
-    if (!(rod.stiff_implicit || (kT.kelvin_voigt && rod.damped))) continue;
-    const int first = rod.offset + 1;
-    viscous_implicit_rod<kT>(first, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s,
-                             b.implicit_scratch_view(thread, first - r.begin));
+  auto needs_solve = [&](const RodInfo& rod) { return rod.stiff_implicit || (kT.kelvin_voigt && rod.damped); };
+  for (int c0 = r.rod_begin; c0 < r.rod_end; c0 += kChunk) {
+    const int c1 = c0 + kChunk < r.rod_end ? c0 + kChunk : r.rod_end;
+    // the rods of this chunk that need the solve, longest first
+    int order[kChunk], item_begin[kChunk + 1];
+    int n = 0, items = 0;
+    for (int i = c0; i < c1; ++i)
+      if (needs_solve(b.rods[i])) order[n++] = i;
+    if constexpr (W > 1)
+      std::sort(order, order + n, [&](int x, int y) {
+        const int ex_ = b.rods[x].elements, ey = b.rods[y].elements;
+        return ex_ != ey ? ex_ > ey : x < y;
+      });
+    // items: runs of `order`, a group of 2 … W rods (of 2 … W/2 rods for the
+    // half-width kernel when W lanes of the longest do not fit the buffer) or
+    // a single rod
+    constexpr int W2 = W >= 4 ? W / 2 : 1;
+    bool half[kChunk];
+    for (int a = 0; a < n;) {
+      const int cells = b.rods[order[a]].elements + 1;
+      const bool fits = W * (cells + 1) <= b.scratch.visc_cells;
+      const bool fits_half = W2 > 1 && W2 * (cells + 1) <= b.scratch.visc_cells;
+      const int count = fits ? std::min(W, n - a) : fits_half ? std::min(W2, n - a) : 1;
+      half[items] = !fits;
+      item_begin[items++] = a;
+      a += count;
+    }
+    item_begin[items] = n;
+    // One compiled copy of the kernels for both branches below (not inlined
+    // twice: two copies may contract a·b + c into FMAs differently, and the
+    // results would then depend on the branch, i.e. on the thread count).
+    auto solve = [&](int item, int t) MANYRODS_NOINLINE {
+      const int* rods = order + item_begin[item];
+      const int count = item_begin[item + 1] - item_begin[item];
+      const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
+      if (count > 1) {
+        int first[W], cells[W];
+        T stiff_h[W];
+        for (int j = 0; j < W; ++j) {
+          const RodInfo& rod = b.rods[rods[j < count ? j : count - 1]];
+          first[j] = rod.offset + 1;
+          cells[j] = rod.elements + 1;
+          stiff_h[j] = rod.stiff_implicit ? h : T(0);
+        }
+        if constexpr (W2 > 1)
+          if (half[item]) {
+            viscous_implicit_lanes<kT, W2>(first, cells, h, stiff_h, m, s, sc);
+            return;
+          }
+        viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, m, s, sc);
+      } else {
+        const RodInfo& rod = b.rods[rods[0]];
+        viscous_implicit_rod<kT>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s, sc);
+      }
+    };
+    if (ex.threads > 1 && items > 1) {
+#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 1)
+      for (int it = 0; it < items; ++it) solve(it, omp_get_thread_num());
+    } else {
+      for (int it = 0; it < items; ++it) solve(it, thread);
+    }
   }
 }
-template <Terms kT, class T>
+template <Terms kT, int kLanes = 0, class T>
 void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
   b.reserve_implicit_scratch(ex.threads);
   for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
-    viscous_update<kT>(b, h, e, r, thread);
+    viscous_update<kT, kLanes>(b, h, e, r, thread);
   });
 }
 

@@ -5,6 +5,7 @@
 // kernels on a GPU is a later step; nothing here is launched.
 #include "kernels/energy.h"
 #include "kernels/viscous_implicit.h"
+#include "kernels/viscous_implicit_lanes.h"
 
 namespace manyrods {
 namespace {
@@ -59,6 +60,22 @@ __global__ void viscous_kernel(int rods, const int* first, const int* cells, T h
   viscous_implicit_rod<kT>(first[r], cells[r], h, kT.kelvin_voigt ? T(0) : h, m, s, sc);
 }
 
+// One thread per group of kLanes rods: group g's rod l starts at
+// first[g·kLanes + l] and has cells[g·kLanes + l] cells; its elimination
+// buffer is the caller's, offset by g·stride entries (stride ≥ kLanes × its
+// longest rod's cells).
+template <unsigned kMask, int kLanes, class T>
+__global__ void viscous_lanes_kernel(int groups, const int* first, const int* cells, T h, const T* stiff_h,
+                                     ModelView<T> m, StateView<T> s, ImplicitScratchView<T> sc, int stride) {
+  constexpr Terms kT = terms_from_mask(kMask);
+  const int g = blockIdx.x * blockDim.x + threadIdx.x;
+  if (g >= groups) return;
+  ImplicitScratchView<T> mine = sc;
+  for (int i = 0; i < 36; ++i) mine.G[i] += g * stride;
+  for (int i = 0; i < 6; ++i) mine.g[i] += g * stride;
+  viscous_implicit_lanes<kT, kLanes>(first + g * kLanes, cells + g * kLanes, h, stiff_h + g * kLanes, m, s, mine);
+}
+
 template <Terms kT, class T>
 void instantiate() {
   constexpr unsigned mask = terms_mask(kT);
@@ -68,6 +85,8 @@ void instantiate() {
   (void)&drift_kernel<T>;
   (void)&energy_kernel<mask, T>;
   (void)&viscous_kernel<mask, T>;
+  (void)&viscous_lanes_kernel<mask, 8, T>;
+  (void)&viscous_lanes_kernel<mask, 16, T>;
 }
 
 }  // namespace

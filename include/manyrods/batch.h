@@ -184,7 +184,8 @@ class RodBatch {
   // cell c of a rod starting at slot `first` of segment r is entry
   // first − r.begin + c. Allocates on first use (not thread-safe: call
   // before any parallel region, with the largest thread count).
-  void reserve_implicit_scratch(int threads);
+  // (min_cells: at least that many cells per thread, e.g. for a lane group)
+  void reserve_implicit_scratch(int threads, int min_cells = 0);
   ImplicitScratchView<T> implicit_scratch_view(int thread, int cell_offset);
   bool any_stiff() const { return any_stiff_; }
 
