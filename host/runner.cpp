@@ -13,16 +13,8 @@ namespace {
 
 std::int64_t round_up(std::int64_t s, std::int64_t m) { return (s / m + 1) * m; }
 
-template <class T>
-void to_bytes(const std::array<Array<T>, 3>& a, std::vector<unsigned char>& out) {
-  out.clear();
-  for (const Array<T>& x : a) {
-    const auto* p = reinterpret_cast<const unsigned char*>(x.data());
-    out.insert(out.end(), p, p + x.size() * sizeof(T));
-  }
-}
-template <class T>
-void to_bytes(const std::array<Array<T>, 9>& a, std::vector<unsigned char>& out) {
+template <class T, std::size_t N>
+void to_bytes(const std::array<Array<T>, N>& a, std::vector<unsigned char>& out) {
   out.clear();
   for (const Array<T>& x : a) {
     const auto* p = reinterpret_cast<const unsigned char*>(x.data());

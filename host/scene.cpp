@@ -3,6 +3,8 @@
 // error names file, line, column and the key path.
 #include "host/scene.h"
 
+#include "host/rng.h"
+
 #include <toml++/toml.h>
 #include <unistd.h>
 
@@ -228,18 +230,6 @@ E3 perpendicular(const E3& d, const E3& hint) {
   return p.normalized();
 }
 
-// Uniform in [0, 1) from a 64-bit state (splitmix64): the same numbers on
-// every platform, unlike the std:: distributions.
-struct Rng {
-  std::uint64_t s;
-  double next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return double(z >> 11) * 0x1.0p-53;
-  }
-};
 
 Placement parse_placement(const Table& g, int count, const Vec3& start, const Vec3& direction,
                           const Vec3& normal) {

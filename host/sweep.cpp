@@ -1,6 +1,8 @@
 // host/sweep.cpp — parameter sweeps (host/sweep.h).
 #include "host/sweep.h"
 
+#include "host/rng.h"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -35,17 +37,6 @@ std::vector<std::string> split(const std::string& s, char c) {
   return out;
 }
 
-// splitmix64, as in host/scene.cpp: the same numbers on every platform.
-struct Rng {
-  std::uint64_t s;
-  double next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return double(z >> 11) * 0x1.0p-53;
-  }
-};
 
 struct Extremum {
   double t, u;
