@@ -7,11 +7,14 @@
 //   Â_0 = A_0,  Â_c = A_c − U_{c−1}ᵀ G_{c−1},  G_c = Â_c⁻¹ U_c,
 //   ŷ_c = y_c − U_{c−1}ᵀ g_{c−1},  g_c = Â_c⁻¹ ŷ_c,
 //   u_c = g_c − G_c u_{c+1}   (backwards from the last cell),
-// Â_c = L Lᵀ by Cholesky. The W rods must have the same cell count; lane l
-// reads and writes rod l's cells at slots first[l] + c. Every value below is
-// an array over the lanes ([…][W]) and every stage is one `omp simd` loop
-// over the lanes whose body is the scalar per-rod arithmetic (fully unrolled:
-// lane-wide vectors in registers, no loop over matrix indices at run time).
+// Â_c = L Lᵀ by Cholesky. Lane l solves rod l, whose cells are the slots
+// first[l] … first[l] + cells[l] − 1 (rods of different lengths: see
+// viscous_implicit_lanes below). Every value is an array over the lanes
+// ([…][W]) and every stage is one `omp simd` loop over the lanes whose body
+// is the scalar per-rod arithmetic (fully unrolled: lane-wide vectors in
+// registers, no loop over matrix indices at run time). Checked with
+// g++ 12 -O3 -march=native -fno-math-errno -fopt-info-vec: every lane loop
+// vectorizes (64-byte vectors), except the scalar fallback loops.
 //
 // Where it does less arithmetic than the scalar kernel (exact in exact
 // arithmetic; the results agree to round-off, tests/test_implicit_lanes.cpp):
@@ -41,11 +44,12 @@
 //     is its carried block plus the mass, and has no U (nothing follows).
 //
 // Joints that turn by more than ½ rad: the assembly runs the branch-free
-// small-rotation strain (voronoi_strain<true>) in the SIMD loop and flags the
-// lanes outside its range; those lanes are assembled again, after the loop,
-// by the same code with the general strain (voronoi_strain<false>), which
-// gives bit-for-bit the same values where the small path is valid
-// (kernels/math.h), exactly as host/launch.h launch_with_fallback does.
+// small-rotation log (joint_log<true>, as voronoi_strain<true>) in the SIMD
+// loop and flags the lanes outside its range; those lanes are assembled
+// again, after the loop, by the same code with the general log
+// (joint_log<false>, as voronoi_strain<false>), which gives bit-for-bit the
+// same values where the small path is valid (kernels/math.h), as
+// host/launch.h launch_with_fallback does.
 //
 // Fixed unknowns (zero inverse mass: a clamped node, a ghost element) become
 // identity rows with u = 0, per lane, as in the scalar kernel.
@@ -95,7 +99,7 @@ MANYRODS_HD constexpr int u_row0(int j) { return j >= 3 ? 3 : 0; }
 // One cell's system for W lanes.
 template <class T, int W>
 struct Cell {
-  T A[21][W];     // lower triangle of A_c; after factor(): L with 1/L_ii on the diagonal
+  T A[21][W];     // lower triangle of A_c (eliminate_lane factors a copy)
   T U[27][W];     // U_c without its zero block (ui)
   T y[6][W];      // M u⁻
   T carry[12][W]; // the next cell's diagonal block so far: A_vv (lt 0–5), A_ωω (lt of the ω part)
