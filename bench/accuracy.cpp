@@ -74,12 +74,9 @@ RodSpec cantilever(int n, double tau) {
   return s;
 }
 
-RodSpec hair(int n, bool stiff) {
-  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, kHairL, n);
-  s.name = "hair";
-  s.section = Section::circle(40e-6);
-  s.material = {1300, 3.9e9, 0.3};
-  s.clamped_root = true;
+// CASES 5b hair, n = 32, undamped (bench/scenes.h), optionally stiff.
+RodSpec hair(bool stiff) {
+  RodSpec s = bench::hair_strand(0, 0, false);
   s.stiff_implicit = stiff;
   return s;
 }
@@ -190,7 +187,7 @@ void cantilever_config(Grid& g, int n, double dt, double tau, const Trajectory& 
 
 template <class T>
 void hair_config(Grid& g, bool stiff, double dt, const Trajectory& ref) {
-  RodBatch<T> b = build_batch<T>({hair(32, stiff)}, {0, 0, -9.81});
+  RodBatch<T> b = build_batch<T>({hair(stiff)}, {0, 0, -9.81});
   double wall = 0, dt_used = 0;
   std::int64_t steps = 0;
   Trajectory tips;
@@ -320,7 +317,7 @@ int main(int argc, char** argv) {
   if (!quick) {
     std::printf("hair reference (plain explicit at half its stable step, n = 32, ~2 min) ...\n");
     std::fflush(stdout);
-    RodBatch<double> hb = build_batch<double>({hair(32, false)}, {0, 0, -9.81});
+    RodBatch<double> hb = build_batch<double>({hair(false)}, {0, 0, -9.81});
     const double dt_exp = stable_dt(hb).elastic;
     double wall, dt_used;
     std::int64_t steps;

@@ -107,6 +107,15 @@ template <Terms kT, int kEulerOrder = 2, class T>
 void kick(RodBatch<T>& b, T h, const Exec& ex) {
   kick<kT, kEulerOrder>(b, h, ex, whole(b));
 }
+// The Position Verlet kick of segment r: the stiff rods' variant where its
+// rods are stiff (segments hold one kind, include/manyrods/batch.h).
+template <Terms kT, class T>
+void segment_kick(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
+  if (r.stiff)
+    kick<kT, 2, true>(b, h, ex, r);
+  else
+    kick<kT>(b, h, ex, r);
+}
 
 // How the Kelvin–Voigt force is integrated.
 //   implicit:      backward Euler in the velocities after the elastic kick
@@ -278,10 +287,7 @@ void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {}) {
     for (std::int64_t i = 0; i < count; ++i) {
       drift(b, T(0.5) * dt, e, r);
       compute_resultants<kExplicit>(b, e, r);
-      if (r.stiff)
-        kick<kExplicit, 2, true>(b, dt, e, r);
-      else
-        kick<kExplicit>(b, dt, e, r);
+      segment_kick<kExplicit>(b, dt, e, r);
       if (solve) viscous_update<kSolve>(b, dt, e, r, thread);
       drift(b, T(0.5) * dt, e, r);
       if (renormalize_after<T>(b.state.steps + i + 1)) renormalize_frames(b, e, r);

@@ -222,16 +222,20 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
     // velocities of the stiff modes (h|ω⁻| ≫ 1) and Δu ≈ −u⁻ cancels them, so
     // u⁻ + Δu would lose every digit of u⁺; the direct form M u⁻ computes u⁺
     // itself (measured: the float stiff hair went non-finite in delta form).
-    const int kp = c > 0 ? k - 1 : k, kn = k + 1;  // c = 0: U_{−1} = 0
-    const T up[6] = {s.node_v[0][kp], s.node_v[1][kp], s.node_v[2][kp],
-                     s.elem_w[0][kp], s.elem_w[1][kp], s.elem_w[2][kp]};
-    const T un[6] = {s.node_v[0][kn], s.node_v[1][kn], s.node_v[2][kn],
-                     s.elem_w[0][kn], s.elem_w[1][kn], s.elem_w[2][kn]};
     T y[6];
-    for (int i = 0; i < 6; ++i) {
-      T acc = T(0);
-      for (int j = 0; j < 6; ++j) acc += A.a[6 * i + j] * u[j] + U.a[6 * i + j] * un[j] + u_prev.a[6 * j + i] * up[j];
-      y[i] = delta ? -acc : mass[i] * u[i];
+    if (delta) {
+      const int kp = c > 0 ? k - 1 : k, kn = k + 1;  // c = 0: U_{−1} = 0
+      const T up[6] = {s.node_v[0][kp], s.node_v[1][kp], s.node_v[2][kp],
+                       s.elem_w[0][kp], s.elem_w[1][kp], s.elem_w[2][kp]};
+      const T un[6] = {s.node_v[0][kn], s.node_v[1][kn], s.node_v[2][kn],
+                       s.elem_w[0][kn], s.elem_w[1][kn], s.elem_w[2][kn]};
+      for (int i = 0; i < 6; ++i) {
+        T acc = T(0);
+        for (int j = 0; j < 6; ++j) acc += A.a[6 * i + j] * u[j] + U.a[6 * i + j] * un[j] + u_prev.a[6 * j + i] * up[j];
+        y[i] = -acc;
+      }
+    } else {
+      for (int i = 0; i < 6; ++i) y[i] = mass[i] * u[i];
     }
     for (int i = 0; i < 6; ++i) A.a[7 * i] += mass[i];
     // elimination: Â_c = A_c − U_{c−1}ᵀ G_{c−1},  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1}

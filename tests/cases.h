@@ -28,6 +28,21 @@ inline RodSpec seed_cantilever(int elements, Damping damping = Damping::none()) 
   return s;
 }
 
+// CASES 5b human hair: L = 0.2 m, r = 40 µm, E = 3.9 GPa, ρ = 1300, ν = 0.3,
+// clamped horizontally (d3 = e1, d1 = e3), so that gravity along −e3 bends
+// and swings it; `stiff`: RodSpec::stiff_implicit.
+inline constexpr double kHairL = 0.2;
+inline RodSpec hair(int elements, bool stiff = false, Damping damping = Damping::none()) {
+  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, kHairL, elements);
+  s.name = stiff ? "stiff hair" : "hair";
+  s.section = Section::circle(40e-6);
+  s.material = {1300, 3.9e9, 0.3};
+  s.damping = damping;
+  s.clamped_root = true;
+  s.stiff_implicit = stiff;
+  return s;
+}
+
 // Euler–Bernoulli clamped–free bending frequencies, ω_k = (β_k L)² √(EI/(ρ A L⁴)).
 inline double euler_bernoulli_omega(double beta_l) {
   return beta_l * beta_l * std::sqrt(kEI / (kRho * kA * kA * kL * kL * kL * kL));

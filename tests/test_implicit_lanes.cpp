@@ -340,11 +340,7 @@ void step_matches_scalar(RodBatch<T>& lanes, T dt, int threads, Checker& ck_u, C
   step_n<kAllTerms>(lanes, dt, 1, ex);
   drift(scalar, T(0.5) * dt, ex);
   compute_resultants<kExplicit>(scalar, ex);
-  for (const Segment& sg : scalar.segments)  // stiff rods' kick as step_n's (kernels/integrate.h)
-    if (sg.stiff)
-      kick<kExplicit, 2, true>(scalar, dt, ex, sg);
-    else
-      kick<kExplicit>(scalar, dt, ex, sg);
+  for (const Segment& sg : scalar.segments) segment_kick<kExplicit>(scalar, dt, ex, sg);  // as step_n
   const RodBatch<T> before = scalar;  // u⁻ at the frozen geometry
   viscous_update<kAllTerms, 1>(scalar, dt, ex);
   drift(scalar, T(0.5) * dt, ex);

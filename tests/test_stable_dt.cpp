@@ -53,15 +53,8 @@ StabilityCase stability_case(int which, Damping damping) {
     s.clamped_root = true;
     return {"cable n=100", s, {0, 0, 0}};
   }
-  // CASES 5b: human hair, L = 0.2 m, r = 40 µm, E = 3.9 GPa, ρ = 1300, ν = 0.3,
-  // n = 32, clamped, under gravity (horizontal, so gravity bends it).
-  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, 0.2, 32);
-  s.name = "hair";
-  s.section = Section::circle(40e-6);
-  s.material = {1300, 3.9e9, 0.3};
-  s.damping = damping;
-  s.clamped_root = true;
-  return {"hair n=32", s, {0, 0, -9.81}};
+  // CASES 5b: human hair, n = 32, clamped horizontally, under gravity
+  return {"hair n=32", hair(32, false, damping), {0, 0, -9.81}};
 }
 
 // Stable = bounded for kProbeSteps steps from the rest state perturbed by
@@ -110,17 +103,6 @@ bool stays_bounded(const RodBatch<double>& start, double dt) {
     if ((i % 50 == 0 || i == kProbeSteps) && blown_up(b)) return false;
   }
   return true;
-}
-
-// CASES 5b hair as a stiff rod (RodSpec::stiff_implicit).
-RodSpec stiff_hair(int n) {
-  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, 0.2, n);
-  s.name = "stiff hair";
-  s.section = Section::circle(40e-6);
-  s.material = {1300, 3.9e9, 0.3};
-  s.clamped_root = true;
-  s.stiff_implicit = true;
-  return s;
 }
 
 struct Limit {
@@ -235,7 +217,7 @@ TEST(StableDt, StiffHairEstimateAgainstTheTrueLimitByBisection) {
   constexpr Terms kUndamped{true, true, true, true, false, true, false};
   for (int n : {32, 64}) {
     StabilityCase c = stability_case(2, Damping::none());
-    c.rod = stiff_hair(n);
+    c.rod = hair(n, true);
     const auto b = build_batch<double>({c.rod}, {0, 0, 0});
     const double est = stable_dt<kUndamped>(b).elastic;
     const Limit lim = true_limit<kUndamped, Viscous::implicit>(b, est, 10);
@@ -246,7 +228,7 @@ TEST(StableDt, StiffHairEstimateAgainstTheTrueLimitByBisection) {
     EXPECT_GE(est, 0.5 * lim.hi) << n;
   }
   // Frame rate: at n = 32 the estimate is above 1e-4 s (issue 5).
-  EXPECT_GE(stable_dt<kUndamped>(build_batch<double>({stiff_hair(32)})).elastic, 1e-4);
+  EXPECT_GE(stable_dt<kUndamped>(build_batch<double>({hair(32, true)})).elastic, 1e-4);
 }
 
 TEST(StableDt, StiffHairSwingingUnderGravityAtHalfTheEstimate) {
@@ -260,7 +242,7 @@ TEST(StableDt, StiffHairSwingingUnderGravityAtHalfTheEstimate) {
   // above (README, "Stiff rods": use at most half of stable_dt).
   constexpr Terms kUndamped{true, true, true, true, false, true, false};
   for (int n : {32, 64}) {
-    const auto b = build_batch<double>({stiff_hair(n)}, {0, 0, -9.81});
+    const auto b = build_batch<double>({hair(n, true)}, {0, 0, -9.81});
     const double est = stable_dt<kUndamped>(b).elastic;
     EXPECT_TRUE((stays_bounded<kUndamped, Viscous::implicit>(b, 0.5 * est))) << n;
   }

@@ -14,18 +14,8 @@ using namespace manyrods;
 
 namespace {
 
-constexpr double kHairL = 0.2;
-
-// CASES 5b hair, clamped horizontally (d3 = e1) so that gravity swings it.
-RodSpec hair(int n, bool stiff) {
-  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, kHairL, n);
-  s.name = stiff ? "stiff hair" : "hair";
-  s.section = Section::circle(40e-6);
-  s.material = {1300, 3.9e9, 0.3};
-  s.clamped_root = true;
-  s.stiff_implicit = stiff;
-  return s;
-}
+using cases::hair;
+using cases::kHairL;
 
 // Tip positions at `frames` equal intervals of T.
 std::vector<Vec3> tip_trajectory(bool stiff, double dt, double T, int frames) {
