@@ -75,6 +75,8 @@ void validate_rod(const RodSpec& s) {
     validate_frame(s.frames[e], "frames[" + std::to_string(e) + "]");
   }
   if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
+  if (s.root_motion && !s.clamped_root) fail("root_motion: a driven root must be clamped (set clamped_root)");
+  if (auto* k = dynamic_cast<const KeyframedMotion*>(s.root_motion.get())) k->validate();
   if (!std::isfinite(s.shear_stretch_scale) || !(s.shear_stretch_scale > 0))
     fail("shear_stretch_scale = " + std::to_string(s.shear_stretch_scale) + ": must be a finite number > 0");
   auto check_vectors = [](const std::vector<Vec3>& v, std::size_t need, const char* name) {
@@ -389,6 +391,7 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     info.offset = static_cast<int>(slots);
     info.clamped_root = s.clamped_root;
     info.stiff_implicit = s.stiff_implicit;
+    info.driven = s.root_motion != nullptr;
     b.any_stiff_ = b.any_stiff_ || s.stiff_implicit;
     try {
       validate_rod(s);
@@ -407,6 +410,19 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     if (big) close_segment(int(r) + 1);
   }
   close_segment(int(specs.size()));
+  // driven roots: one entry per rod, one motion per distinct pointer
+  for (std::size_t r = 0; r < specs.size(); ++r) {
+    const RodSpec& s = specs[r];
+    if (!s.root_motion) continue;
+    auto it = std::find(b.motions.begin(), b.motions.end(), s.root_motion);
+    if (it == b.motions.end()) it = b.motions.insert(b.motions.end(), s.root_motion);
+    b.driven.push_back({int(r), int(it - b.motions.begin()), s.nodes[0], s.root_frame ? *s.root_frame : s.frames[0]});
+  }
+  for (Segment& seg : b.segments) {
+    auto by_rod = [](const DrivenRoot& d, int rod) { return d.rod < rod; };
+    seg.driven_begin = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_begin, by_rod) - b.driven.begin());
+    seg.driven_end = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_end, by_rod) - b.driven.begin());
+  }
   if (b.segments.empty()) slots = kGuard;
   b.allocate(static_cast<int>(slots), elements);
 

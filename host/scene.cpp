@@ -13,6 +13,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <set>
 #include <sstream>
@@ -217,6 +218,99 @@ Simulation parse_simulation(const Table& root) {
 }
 
 // ---- [[rods]] ----------------------------------------------------------------
+
+// root = "clamped" | "free" | a table describing a driven root (a clamped
+// root following a rigid motion, include/manyrods/drive.h; angles in degrees).
+struct Root {
+  bool clamped = true;
+  std::shared_ptr<const RootMotion> motion;
+};
+
+Root parse_root(const Table& g) {
+  Root r;
+  if (!g.has("root")) return r;
+  const toml::node* n = g.get("root");
+  if (n->is_string()) {
+    r.clamped = g.string("root", {"clamped", "free"}) == "clamped";
+    return r;
+  }
+  if (!n->is_table())
+    g.fail("root", std::string("must be \"clamped\", \"free\" or a table with motion = \"oscillate\" or "
+                               "\"keyframes\", got ") + type_name(*n));
+  constexpr double deg = std::numbers::pi / 180;
+  const toml::table& t = *n->as_table();
+  const std::string kind = t.contains("motion") && t.get("motion")->is_string()
+                               ? t.get("motion")->as_string()->get()
+                               : std::string();
+  if (kind == "oscillate") {
+    const Table m = g.sub("root", {"motion", "translation_amplitude", "rotation_axis", "rotation_amplitude",
+                                   "frequency", "phase", "pivot"});
+    auto o = std::make_shared<OscillatingMotion>();
+    o->translation_amplitude = m.vec3("translation_amplitude", {0, 0, 0});
+    o->rotation_amplitude = m.number("rotation_amplitude", 0) * deg;
+    if (o->rotation_amplitude != 0) {
+      if (!m.has("rotation_axis")) m.missing("rotation_axis", "needed when rotation_amplitude is not 0");
+      o->axis = m.nonzero_vec3("rotation_axis", {0, 0, 1});
+    } else if (m.has("rotation_axis")) {
+      o->axis = m.nonzero_vec3("rotation_axis", {0, 0, 1});
+    }
+    o->frequency = m.positive("frequency");
+    o->phase = m.number("phase", 0) * deg;
+    o->pivot = m.vec3("pivot", {0, 0, 0});
+    r.motion = o;
+  } else if (kind == "keyframes") {
+    const Table m = g.sub("root", {"motion", "times", "translations", "rotations", "pivot"});
+    auto k = std::make_shared<KeyframedMotion>();
+    auto list = [&](const char* key) -> const toml::array& {
+      const toml::node* a = m.get(key);
+      if (!a) m.missing(key);
+      if (!a->is_array() || a->as_array()->empty()) m.fail(key, "must be a non-empty array");
+      return *a->as_array();
+    };
+    const toml::array& times = list("times");
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      const std::string p = m.key("times") + "." + std::to_string(i);
+      k->times.push_back(m.as_number(*times.get(i), p));
+      if (i > 0 && !(k->times[i] > k->times[i - 1]))
+        g.ctx.fail(*times.get(i), p, "times must increase strictly (got " + num(k->times[i]) + " after " +
+                                         num(k->times[i - 1]) + ")");
+    }
+    const toml::array& tr = list("translations");
+    if (tr.size() != times.size())
+      m.fail("translations", "needs one [x, y, z] per time (" + std::to_string(times.size()) + "), got " +
+                                 std::to_string(tr.size()));
+    for (std::size_t i = 0; i < tr.size(); ++i)
+      k->translations.push_back(m.vec3_of(*tr.get(i), m.key("translations") + "." + std::to_string(i)));
+    if (m.has("rotations")) {
+      const toml::array& ro = list("rotations");
+      if (ro.size() != times.size())
+        m.fail("rotations", "needs one [axis x, y, z, angle in degrees] per time (" +
+                                std::to_string(times.size()) + "), got " + std::to_string(ro.size()));
+      for (std::size_t i = 0; i < ro.size(); ++i) {
+        const std::string p = m.key("rotations") + "." + std::to_string(i);
+        const toml::array* a = ro.get(i)->as_array();
+        if (!a || a->size() != 4)
+          g.ctx.fail(*ro.get(i), p, "must be [axis x, axis y, axis z, angle in degrees]");
+        std::array<double, 4> q;
+        for (int j = 0; j < 4; ++j) q[j] = m.as_number(*a->get(j), p + "." + std::to_string(j));
+        if (q[3] != 0 && !(std::hypot(q[0], q[1], q[2]) > 0))
+          g.ctx.fail(*ro.get(i), p, "a non-zero angle needs a non-zero axis");
+        q[3] *= deg;
+        k->rotations.push_back(q);
+      }
+    }
+    k->pivot = m.vec3("pivot", {0, 0, 0});
+    k->validate();  // all checked above; a library check left over would still name the group
+    r.motion = k;
+  } else {
+    const toml::node* mk = t.get("motion");
+    if (!mk) g.ctx.fail(*n, g.key("root.motion"), "missing: a driven root needs motion = \"oscillate\" or \"keyframes\"");
+    g.ctx.fail(*mk, g.key("root.motion"),
+               mk->is_string() ? "\"" + kind + "\" is not one of \"oscillate\", \"keyframes\""
+                               : std::string("must be a string, got ") + type_name(*mk));
+  }
+  return r;
+}
 
 struct Placement {
   std::vector<Vec3> starts, directions, normals;  // [count]
@@ -566,7 +660,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     Material material;
     Damping damping;
     const toml::table* table;
-    const toml::node* gravity_node = nullptr;
+    std::shared_ptr<const RootMotion> motion;  // driven root: shared by the group's rods
   };
   // Memory and index range before anything large is allocated.
   auto check_size = [&](std::int64_t slots, std::int64_t elements) {
@@ -605,13 +699,10 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     p.damping = parse_damping(g);
     p.u0 = g.vec3("rest_curvature", {0, 0, 0});
     p.curved = to_e(p.u0).norm() > 0;
-    if (g.has("root")) {
-      const toml::node* r = g.get("root");
-      if (r->is_string() && r->as_string()->get() == "driven")
-        g.fail("root", "driven roots are not supported yet (use \"clamped\" or \"free\")");
-      p.clamped = g.string("root", {"clamped", "free"}) == "clamped";
-    } else {
-      p.clamped = true;
+    {
+      const Root root = parse_root(g);
+      p.clamped = root.clamped;
+      p.motion = root.motion;
     }
     p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
     if (g.has("initial_tip_force")) {
@@ -629,7 +720,6 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
       const Table t = g.sub("terms", {"shear", "stretch", "bend", "twist", "kelvin_voigt", "gravity"});
       p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true),      t.boolean("bend", true),
                    t.boolean("twist", true), t.boolean("kelvin_voigt", true), t.boolean("gravity", true)};
-      if (t.has("gravity")) p.gravity_node = t.get("gravity");
     }
     // resolve material and damping now, so that a library InputError names this group
     try {
@@ -646,16 +736,6 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     p.place = parse_placement(g, p.g.count, start, direction, normal);
     pending.push_back(std::move(p));
   }
-  // all groups must agree on the gravity switch (checked above for explicit keys)
-  for (std::size_t i = 1; i < pending.size(); ++i)
-    if (pending[i].g.terms.gravity != pending[0].g.terms.gravity) {
-      const std::string msg = "differs from rods.0: gravity is one compile-time switch for the whole batch";
-      if (pending[i].gravity_node)
-        ctx.fail(*pending[i].gravity_node, "rods." + std::to_string(i) + ".terms.gravity", msg);
-      throw SceneError(source + ":" + std::to_string(pending[i].g.line) + ": rods." + std::to_string(i) +
-                       ".terms.gravity: " + msg);
-    }
-
   for (std::size_t gi = 0; gi < pending.size(); ++gi) {
     Pending& p = pending[gi];
     p.g.first_rod = int(sc.rods.size());
@@ -676,6 +756,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
       r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
       r.shear_stretch_scale = p.scale;
       r.clamped_root = p.clamped;
+      r.root_motion = p.motion;
       r.stiff_implicit = p.stiff;
       sc.rods.push_back(std::move(r));
       sc.rod_group.push_back(int(gi));

@@ -47,8 +47,9 @@ struct Simulation {
 // Which terms a group's rods include (kernels/terms.h). shear, stretch, bend
 // and twist are switched off by zeroing that stiffness in the rods' model
 // (identical to the compile-time switch: an off term contributes no force);
-// kelvin_voigt off = no damping for the group; gravity is one compile-time
-// switch for the whole batch (all groups must agree).
+// kelvin_voigt off = no damping for the group; gravity off = the group's rods
+// feel no gravity (host/scene_run.h: the compile-time term when all groups
+// have it, dead node loads otherwise).
 struct TermSwitches {
   bool shear = true, stretch = true, bend = true, twist = true, kelvin_voigt = true, gravity = true;
 };

@@ -1,6 +1,7 @@
 // host/scene_run.cpp — building and stepping a scene's batch (host/scene_run.h).
 #include "host/scene_run.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -63,6 +64,11 @@ std::string static_key(const RodSpec& r, const RodGroup& g, const Vec3& gravity)
   return os.str();
 }
 
+bool has_gravity(const Scene& s) {
+  const Vec3& g = s.sim.gravity;
+  return g[0] != 0 || g[1] != 0 || g[2] != 0;
+}
+
 }  // namespace
 
 StepChoice step_choice(const Scene& s) {
@@ -73,8 +79,10 @@ StepChoice step_choice(const Scene& s) {
       // a damping form with all-zero parameters is still "off"
       if (s.rods[i].damping.p1 != 0 || s.rods[i].damping.p2 != 0) c.kelvin_voigt = true;
     }
-  const Vec3& g = s.sim.gravity;
-  c.gravity = !s.groups.empty() && s.groups[0].terms.gravity && (g[0] != 0 || g[1] != 0 || g[2] != 0);
+  // the compile-time gravity term when every group has it; groups that
+  // differ get gravity as dead node loads instead (build_scene_batch)
+  c.gravity = has_gravity(s) && std::all_of(s.groups.begin(), s.groups.end(),
+                                             [](const RodGroup& g) { return g.terms.gravity; });
   return c;
 }
 
@@ -91,10 +99,24 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
     throw SceneError(s.source + ": out of memory building the batch (about " +
                      std::to_string(estimated_batch_bytes(s) / 1000000) + " MB estimated)");
   }
+  // Gravity per group: when groups differ, the batch has no gravity term and
+  // the rods of groups with gravity carry it as a dead load m_j g on every
+  // node (the same force; its potential is the dead loads' −f·x).
+  const bool gravity_as_load = has_gravity(s) && !choice.gravity;
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodGroup& g = s.groups[s.rod_group[r]];
     apply_term_switches(b, r, g.terms);
-    if (g.tip_force != Vec3{0, 0, 0}) b.set_node_force(r, b.elements(r), g.tip_force);
+    const int n = b.elements(r);
+    if (gravity_as_load && g.terms.gravity) {
+      for (int j = 0; j <= n; ++j) {
+        const double m = double(b.model.node_mass[b.node_index(r, j)]);
+        const Vec3 tip = j == n ? g.tip_force : Vec3{0, 0, 0};
+        b.set_node_force(r, j, {m * s.sim.gravity[0] + tip[0], m * s.sim.gravity[1] + tip[1],
+                                m * s.sim.gravity[2] + tip[2]});
+      }
+    } else if (g.tip_force != Vec3{0, 0, 0}) {
+      b.set_node_force(r, n, g.tip_force);
+    }
   }
   if (!initial_state) return b;
   std::map<std::string, RodBatch<double>> solved;
@@ -110,8 +132,8 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
       Vec3 f;
       for (int a = 0; a < 3; ++a) f[a] = g.initial_tip_force[a] + g.tip_force[a];
       one.set_node_force(0, n, f);
-      const StaticResult res = choice.gravity ? solve_static<terms_of<false, true>()>(one)
-                                              : solve_static<terms_of<false, false>()>(one);
+      const StaticResult res = has_gravity(s) && g.terms.gravity ? solve_static<terms_of<false, true>()>(one)
+                                                                 : solve_static<terms_of<false, false>()>(one);
       if (!res.converged)
         throw SceneError(s.source + ":" + std::to_string(g.line) + ": " + g.name +
                          ": the static equilibrium under initial_tip_force did not converge");

@@ -5,8 +5,10 @@
 //
 // Terms dispatch. Kelvin–Voigt and gravity are chosen at compile time for the
 // whole batch (four instantiations of the step): Kelvin–Voigt is on when any
-// group has damping and terms.kelvin_voigt; gravity when the groups' (shared)
-// terms.gravity is on and [simulation] gravity is not zero. Shear, stretch,
+// group has damping and terms.kelvin_voigt; gravity when every group's
+// terms.gravity is on and [simulation] gravity is not zero. When the groups
+// differ, the batch has no gravity term and the groups with gravity carry it
+// as a dead load m_j g on each node (the same force). Shear, stretch,
 // bend and twist are switched off per group by zeroing that stiffness in
 // the model after build_batch: with a zero stiffness the term's elastic and
 // viscous resultants are exactly zero (V_F = C_F diag(τ), V_M = C_M diag(τ)),

@@ -117,6 +117,47 @@ void segment_kick(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
     kick<kT>(b, h, ex, r);
 }
 
+// The driven roots of segment r at the start of a step [t, t + h]
+// (include/manyrods/drive.h): node 0 at x(t) with the mean velocity
+// (x(t + h) − x(t))/h, the clamp frame (root ghost element) at Q(t) with the
+// angular velocity that turns it into Q(t + h), so that the step's drifts end
+// exactly at the pose of t + h. Each segment evaluates the motions it uses.
+template <class T>
+void apply_root_motion(RodBatch<T>& b, const Segment& r, double t, double h) {
+  const StateView<T> s = b.state_view();
+  int last = -1;
+  RootStep st;
+  for (int i = r.driven_begin; i < r.driven_end; ++i) {
+    const DrivenRoot& d = b.driven[i];
+    if (d.motion != last) {
+      st = root_step(*b.motions[d.motion], t, h);
+      last = d.motion;
+    }
+    const Mat3 &r0 = st.start.rotation, &r1 = st.end.rotation;
+    const int k = b.node_index(d.rod, 0), g = b.rods[d.rod].offset;  // node 0, clamp frame
+    for (int c = 0; c < 3; ++c) {
+      double x0 = st.start.translation[c], x1 = st.end.translation[c];
+      for (int j = 0; j < 3; ++j) {
+        x0 += r0[3 * c + j] * d.x0[j];
+        x1 += r1[3 * c + j] * d.x0[j];
+      }
+      s.node_x[c][k] = T(x0);
+      s.node_v[c][k] = T((x1 - x0) / h);
+      if constexpr (sizeof(T) == 4) s.node_xc[c][k] = T(0);
+    }
+    Mat3 q;  // Q(t) = Q₀ R(t)ᵀ
+    for (int i2 = 0; i2 < 3; ++i2)
+      for (int j = 0; j < 3; ++j) {
+        double a = 0;
+        for (int l = 0; l < 3; ++l) a += d.q0[3 * i2 + l] * r0[3 * j + l];
+        q[3 * i2 + j] = a;
+        s.elem_Q[3 * i2 + j][g] = T(a);
+      }
+    for (int c = 0; c < 3; ++c)  // material components: ω = Q(t) Ω
+      s.elem_w[c][g] = T(q[3 * c] * st.omega[0] + q[3 * c + 1] * st.omega[1] + q[3 * c + 2] * st.omega[2]);
+  }
+}
+
 // How the Kelvin–Voigt force is integrated.
 //   implicit:      backward Euler in the velocities after the elastic kick
 //                  (kernels/viscous_implicit.h): stable for any τ, one
@@ -215,6 +256,23 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
       a += count;
     }
     item_begin[items] = n;
+    // driven roots: the solve runs on the velocities relative to the rigid
+    // motion of the root (kernels/viscous_implicit.h rigid_shift)
+    // (v₀, ω_g of the root; Ω = Q_gᵀ ω_g and x₀ do not change in the solve)
+    vec3<T> root_v[kChunk][2];
+    auto shift = [&](const RodInfo& rod, const vec3<T>* root, T sign) {
+      const int k = rod.offset + 1;
+      const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, k - 1), root[1]);
+      rigid_shift(k, rod.elements + 1, sign, root[0], omega, load3(s.node_x, k), s);
+      store3(s.node_v, k, sign > T(0) ? root[0] : vec3<T>{T(0), T(0), T(0)});
+      store3(s.elem_w, k - 1, sign > T(0) ? root[1] : vec3<T>{T(0), T(0), T(0)});
+    };
+    for (int i = 0; i < n; ++i)
+      if (const RodInfo& rod = b.rods[order[i]]; rod.driven) {
+        root_v[i][0] = load3(s.node_v, rod.offset + 1);
+        root_v[i][1] = load3(s.elem_w, rod.offset);
+        shift(rod, root_v[i], T(-1));
+      }
     // One compiled copy of the kernels for both branches below (not inlined
     // twice: two copies may contract a·b + c into FMAs differently, and the
     // results would then depend on the branch, i.e. on the thread count).
@@ -248,6 +306,8 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
     } else {
       for (int it = 0; it < items; ++it) solve(it, thread);
     }
+    for (int i = 0; i < n; ++i)
+      if (const RodInfo& rod = b.rods[order[i]]; rod.driven) shift(rod, root_v[i], T(1));
   }
 }
 template <Terms kT, int kLanes = 0, class T>
@@ -284,7 +344,10 @@ void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {}) {
   const bool solve = kImplicitKV || b.any_stiff();
   if (solve) b.reserve_implicit_scratch(ex.threads);
   for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
+    double t = b.state.time;
     for (std::int64_t i = 0; i < count; ++i) {
+      if (r.driven_end > r.driven_begin) apply_root_motion(b, r, t, double(dt));
+      t += double(dt);
       drift(b, T(0.5) * dt, e, r);
       compute_resultants<kExplicit>(b, e, r);
       segment_kick<kExplicit>(b, dt, e, r);
@@ -374,6 +437,8 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {}) {
     kick<kExplicit, kEulerOrder>(b, h, ex);
     if constexpr (kImplicit) viscous_update<kT>(b, T(0.25) * dt, ex);
   };
+  for (const Segment& r : b.segments)
+    if (r.driven_end > r.driven_begin) apply_root_motion(b, r, b.state.time, double(dt));
   drift(b, xi, ex);
   kick_stage(outer);
   drift(b, chi, ex);

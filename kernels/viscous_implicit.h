@@ -26,7 +26,8 @@
 // tridiagonal with 6×6 blocks: element k couples cells k and k+1, Voronoi k
 // couples cells k−1 and k. The system is solved by block Thomas elimination
 // with 6×6 Cholesky factors, one rod per call: data-parallel over rods.
-// Fixed unknowns (clamped node, ghost element) keep u = 0.
+// Fixed unknowns (clamped node, ghost element) keep u = 0; a driven root's
+// prescribed velocities enter through rigid_shift (below).
 //
 // Stiff rods (RodSpec::stiff_implicit, "frame-rate hair"): the same solve
 // also integrates the shear, stretch and twist STIFFNESS linearly implicitly.
@@ -156,6 +157,33 @@ MANYRODS_HD inline void voronoi_maps(int k, T stiff_h, const ModelView<T>& m, co
 }
 
 }  // namespace viscous_detail
+
+// Driven roots (include/manyrods/drive.h): node 0's velocity v₀ and the
+// clamp frame's ω_g = Q_g Ω (the root ghost element, slot first − 1) are
+// prescribed, non-zero unknowns, which the solve above keeps at zero. They
+// extend to a rigid velocity field of the whole rod,
+//   ū: v̄_j = v₀ + Ω × (x_j − x₀),  ω̄_e = Q_e Ω  (material components),
+// and a rigid motion strains nothing: D ū = 0 for the maps above, exactly
+// (B_k ū = [Q(Ω × e) + (Qe) × (QΩ)]/l̂ = 0 and C_k ū = J⁻¹(Rᵀ Q_k − Q_{k−1})Ω/D̂
+// = 0 with R = Q_k Q_{k−1}ᵀ). With u = ū + w the system becomes
+// (M + hD) w⁺ = M w⁻ with w = 0 at the root: the solve of a clamped rod, on
+// w. The host subtracts ū (sign −1), solves, and adds it back (sign +1),
+// putting the root's own values back (host/step.h viscous_update). Solving
+// for w rather than moving D_fp u_p to the right-hand side also keeps the
+// stiff rods' direct form from cancelling h²K v₀ against itself: a rod
+// carried at v has w⁻ equal to the still rod's u⁻ up to round-off
+// (tests/test_drive.cpp: the two agree to 1e-15 m).
+// Nodes first … first + cells − 1 and their elements (not the tip ghost).
+template <class T>
+MANYRODS_HD inline void rigid_shift(int first, int cells, T sign, vec3<T> v0, vec3<T> omega, vec3<T> x0,
+                                    const StateView<T>& s) {
+  for (int c = 0; c < cells; ++c) {
+    const int k = first + c;
+    const vec3<T> v = v0 + cross(omega, load3(s.node_x, k) - x0);
+    store3(s.node_v, k, load3(s.node_v, k) + sign * v);
+    if (c + 1 < cells) store3(s.elem_w, k, load3(s.elem_w, k) + sign * mul(load_frame(s.elem_Q, k), omega));
+  }
+}
 
 // Backward-Euler viscous update of one rod whose cells occupy slots
 // [first, first + cells). Velocities in `s` are u⁻ on entry, u⁺ on exit.

@@ -155,7 +155,7 @@ TEST(Cli, ExampleScenesRun) {
     int rods;
   };
   for (const Example& e : {Example{"seed_cantilever", "0.01", 1}, Example{"hair_groom", "0.1", 64},
-                           Example{"cable_bundle", "0.002", 16}}) {
+                           Example{"cable_bundle", "0.002", 16}, Example{"hair_turn", "0.1", 64}}) {
     SCOPED_TRACE(e.file);
     const std::string out = path(std::string(e.file) + ".h5");
     const Result r = cli("run " + scenes + "/" + e.file + ".toml -o " + out + " --duration " + e.duration);
@@ -369,13 +369,24 @@ TEST(Cli, ExportWritesUsdBasisCurvesWithTimeSamples) {
   expect_contains(usd, "int[] curveVertexCounts = [6, 6, 6]");
   expect_contains(usd, "point3f[] points.timeSamples = {");
   // one time sample per frame, each with 18 points
+  const std::size_t p0 = usd.find("point3f[] points.timeSamples = {");
+  const std::string points = usd.substr(p0, usd.find('}', p0) - p0);
   const std::regex sample(R"(\n\s+([0-9.e+-]+): \[([^\]]*)\],)");
   int samples = 0;
-  for (std::sregex_iterator it(usd.begin(), usd.end(), sample), end; it != end; ++it, ++samples) {
+  for (std::sregex_iterator it(points.begin(), points.end(), sample), end; it != end; ++it, ++samples) {
     const std::string pts = (*it)[2];
     EXPECT_EQ(std::count(pts.begin(), pts.end(), '('), 18);
   }
   EXPECT_EQ(samples, 11);
+  // extent: a box per time sample, around the points, padded by half the width
+  const std::size_t e0 = usd.find("float3[] extent.timeSamples = {");
+  ASSERT_NE(e0, std::string::npos);
+  const std::string extent = usd.substr(e0, usd.find('}', e0) - e0);
+  const std::regex box(R"(\n\s+[0-9]+: \[\(([-0-9.e+]+), ([-0-9.e+]+), ([-0-9.e+]+)\), \(([-0-9.e+]+), ([-0-9.e+]+), ([-0-9.e+]+)\)\],)");
+  int boxes = 0;
+  for (std::sregex_iterator it(extent.begin(), extent.end(), box), end; it != end; ++it, ++boxes)
+    for (int d = 0; d < 3; ++d) EXPECT_LE(std::stod((*it)[1 + d]) + 0.0099, std::stod((*it)[4 + d]));  // ≥ the width 0.01
+  EXPECT_EQ(boxes, 11);
   // widths: one per vertex, the section width
   expect_contains(usd, "float[] widths = [0.01, 0.01");
   // balanced braces

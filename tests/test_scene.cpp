@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -209,6 +210,76 @@ TEST(Scene, KelvinVoigtOffAndGravitySwitches) {
   EXPECT_EQ(step_choice(g).integrator, Integrator::pefrl);
 }
 
+TEST(Scene, GravityPerGroup) {
+  // Two groups, the second without gravity: the batch carries gravity as
+  // dead node loads m_j g on the first group. Its rod moves as in a scene of
+  // that group alone (the compile-time gravity term), the other stays put.
+  const std::string sim = "gravity = [0.0, -9.81, 0.0]\n";
+  const Scene one = parse_scene(scene_text("", sim), "one.toml");
+  const Scene two = parse_scene(scene_text("[[rods]]\nelements = 6\nlength = 0.3\nstart = [0.5, 0.0, 0.0]\n"
+                                           "section = { shape = \"rectangle\", width = 0.01, height = 0.01 }\n"
+                                           "material = { density = 1000.0, youngs_modulus = 1.0e6, poisson_ratio = 0.3 }\n"
+                                           "[rods.terms]\ngravity = false\n",
+                                           sim),
+                                "two.toml");
+  EXPECT_TRUE(step_choice(one).gravity);
+  EXPECT_FALSE(step_choice(two).gravity);
+  RodBatch<double> a = build_scene_batch<double>(one), b = build_scene_batch<double>(two);
+  const double dt = scene_dt(one, a);
+  advance_scene(a, step_choice(one), dt, 500, {});
+  advance_scene(b, step_choice(two), dt, 500, {});
+  double diff = 0, sag = 0, still = 0;
+  for (int j = 0; j <= 6; ++j)
+    for (int d = 0; d < 3; ++d) {
+      diff = std::max(diff, std::abs(a.position(0, j)[d] - b.position(0, j)[d]));
+      sag = std::max(sag, std::abs(a.position(0, j)[d] - one.rods[0].nodes[j][d]));
+      still = std::max(still, std::abs(b.position(1, j)[d] - two.rods[1].nodes[j][d]));
+    }
+  EXPECT_GT(sag, 1e-3);  // it fell
+  // g as m⁻¹(m g) instead of g: one rounding per node and step
+  EXPECT_LE(diff, 500 * 1e-15 * 0.3);
+  EXPECT_LT(still, 1e-12 * 0.3);  // at rest up to the round-off of its rest strains (1e-17 m measured)
+  // the potential energy counts the gravity loads: the same total energy
+  const Energies ea = scene_energies(a, step_choice(one), 0), eb = scene_energies(b, step_choice(two), 0);
+  EXPECT_NEAR(ea.total(), eb.total(), 1e-9 * std::abs(ea.potential));
+}
+
+TEST(Scene, DrivenRoots) {
+  const Scene s = parse_scene(
+      scene_text("count = 3\nplacement = { kind = \"grid\", spacing = [0.05, 0.05] }\n"
+                 "root = { motion = \"oscillate\", translation_amplitude = [0.01, 0.0, 0.0], rotation_axis = "
+                 "[0.0, 1.0, 0.0], rotation_amplitude = 30.0, frequency = 2.0, phase = 90.0, pivot = [0.0, 0.0, 0.1] }\n"
+                 "[[rods]]\nelements = 4\nlength = 0.2\n"
+                 "section = { shape = \"circle\", radius = 0.002 }\n"
+                 "material = { density = 1000.0, youngs_modulus = 1.0e6, poisson_ratio = 0.3 }\n"
+                 "[rods.root]\nmotion = \"keyframes\"\ntimes = [0.0, 1.0]\n"
+                 "translations = [[0.0, 0.0, 0.0], [0.0, 0.2, 0.0]]\n"
+                 "rotations = [[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 2.0, 90.0]]\n"),
+      "driven.toml");
+  ASSERT_EQ(s.rods.size(), 4u);
+  // one motion per group, shared by its rods; the rods are clamped
+  EXPECT_EQ(s.rods[0].root_motion, s.rods[2].root_motion);
+  EXPECT_NE(s.rods[0].root_motion, s.rods[3].root_motion);
+  for (const RodSpec& r : s.rods) EXPECT_TRUE(r.clamped_root && r.root_motion);
+  const auto* o = dynamic_cast<const OscillatingMotion*>(s.rods[0].root_motion.get());
+  ASSERT_NE(o, nullptr);
+  EXPECT_NEAR(o->rotation_amplitude, std::numbers::pi / 6, 1e-15);  // degrees in the file
+  EXPECT_NEAR(o->phase, std::numbers::pi / 2, 1e-15);
+  EXPECT_EQ(o->frequency, 2.0);
+  EXPECT_EQ(o->pivot[2], 0.1);
+  // keyframes: halfway, half the translation and 45° about e3
+  const Pose p = s.rods[3].root_motion->at(0.5);
+  EXPECT_NEAR(p.translation[1], 0.1, 1e-15);
+  EXPECT_NEAR(p.rotation[0], std::cos(std::numbers::pi / 4), 1e-15);
+  EXPECT_NEAR(p.rotation[3], std::sin(std::numbers::pi / 4), 1e-15);  // R e1 = (cos, sin, 0)
+  // the batch moves the roots: after 0.5 s the keyframed root is at +0.1 e2
+  RodBatch<double> b = build_scene_batch<double>(s);
+  const double dt = 1e-4;
+  advance_scene(b, step_choice(s), dt, 5000, {});
+  const Vec3 root = b.position(3, 0);
+  EXPECT_NEAR(root[1], s.rods[3].nodes[0][1] + 0.1, 1e-12);
+}
+
 TEST(Scene, OverridesReachTheRods) {
   const Scene s =
       parse_scene(scene_text(), "v.toml",
@@ -318,7 +389,33 @@ TEST(SceneErrors, InconsistentOrMissing) {
       head + mat + "section = { shape = \"hollow_circle\", outer_radius = 0.01, inner_radius = 0.01 }\n",
       {"bad.toml:8:", "rods.0.section.inner_radius: must be < outer_radius"});
   expect_error(head + sec + mat + "root = \"driven\"\n",
-               {"bad.toml:9:", "rods.0.root: driven roots are not supported yet"});
+               {"bad.toml:9:", "rods.0.root: \"driven\" is not one of \"clamped\", \"free\""});
+  // driven roots
+  expect_error(head + sec + mat + "root = { frequency = 2.0 }\n",
+               {"bad.toml:9:", "rods.0.root.motion: missing"});
+  expect_error(head + sec + mat + "root = { motion = \"spin\" }\n",
+               {"bad.toml:9:", "rods.0.root.motion: \"spin\" is not one of \"oscillate\", \"keyframes\""});
+  expect_error(head + sec + mat + "root = { motion = \"oscillate\", frequency = 2.0, rotation_amplitude = 10.0 }\n",
+               {"bad.toml:9:", "rods.0.root.rotation_axis: missing"});
+  expect_error(head + sec + mat + "root = { motion = \"oscillate\", frequency = -2.0 }\n",
+               {"bad.toml:9:", "rods.0.root.frequency: must be > 0"});
+  expect_error(head + sec + mat + "root = { motion = \"oscillate\", frequency = 2.0, amplitude = 1.0 }\n",
+               {"bad.toml:9:", "rods.0.root.amplitude: unknown key"});
+  expect_error(head + sec + mat +
+                   "root = { motion = \"keyframes\", times = [0.0, 0.5, 0.5], translations = [[0.0, 0.0, 0.0], "
+                   "[0.1, 0.0, 0.0], [0.0, 0.0, 0.0]] }\n",
+               {"bad.toml:9:", "rods.0.root.times.2: times must increase strictly"});
+  expect_error(head + sec + mat +
+                   "root = { motion = \"keyframes\", times = [0.0, 1.0], translations = [[0.0, 0.0, 0.0]] }\n",
+               {"bad.toml:9:", "rods.0.root.translations: needs one [x, y, z] per time (2), got 1"});
+  expect_error(head + sec + mat +
+                   "root = { motion = \"keyframes\", times = [0.0, 1.0], translations = [[0.0, 0.0, 0.0], "
+                   "[0.0, 0.0, 0.0]], rotations = [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 30.0]] }\n",
+               {"bad.toml:9:", "rods.0.root.rotations.0: must be [axis x, axis y, axis z, angle in degrees]"});
+  expect_error(head + sec + mat +
+                   "root = { motion = \"keyframes\", times = [0.0, 1.0], translations = [[0.0, 0.0, 0.0], "
+                   "[0.0, 0.0, 0.0]], rotations = [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 30.0]] }\n",
+               {"bad.toml:9:", "rods.0.root.rotations.1: a non-zero angle needs a non-zero axis"});
   expect_error(head + sec + mat + "damping = { tau_shear = 0.01 }\n",
                {"bad.toml:9:", "rods.0.damping.tau_extension: missing"});
   // (τS, τE) implying a negative bulk viscosity: the library's InputError, placed at the damping table
@@ -326,10 +423,6 @@ TEST(SceneErrors, InconsistentOrMissing) {
                {"bad.toml:9:", "rods.0.damping:", "bulk"});
   expect_error(head + sec + mat + "root = \"free\"\ninitial_tip_force = [1.0, 0.0, 0.0]\n",
                {"bad.toml:10:", "rods.0.initial_tip_force: needs root = \"clamped\""});
-  // gravity is one switch for the batch
-  expect_error(head + sec + mat + "[[rods]]\nelements = 3\nlength = 1.0\n" + sec + mat +
-                   "[rods.terms]\ngravity = false\n",
-               {"bad.toml:", "rods.1.terms.gravity: differs from rods.0"});
   // TOML syntax
   expect_error("[simulation]\ndt = 1e-4\nduration = \n", {"bad.toml:3:", "TOML syntax error"});
 }

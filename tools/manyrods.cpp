@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -65,6 +66,16 @@ std::string usd_name(const std::string& s, int index) {
   return n;
 }
 
+// A string literal of the USD text format: \ and " escaped, controls dropped.
+std::string usd_string(const std::string& s) {
+  std::string q;
+  for (char c : s) {
+    if (c == '\\' || c == '"') q += '\\';
+    if (static_cast<unsigned char>(c) >= 0x20) q += c;
+  }
+  return q;
+}
+
 int export_usd(const std::string& in, const std::string& usd, int every) {
   const h5::Reader rd(in);
   const h5::Output& o = rd.output();
@@ -86,13 +97,18 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
     std::ofstream out(tmp);
     if (!out) throw h5::H5Error(usd + ": cannot write");
     out.precision(9);
-    out << "#usda 1.0\n(\n    defaultPrim = \"manyrods\"\n    doc = \"manyrods export of " << in << "\"\n"
+    out << "#usda 1.0\n(\n    defaultPrim = \"manyrods\"\n    doc = \"manyrods export of " << usd_string(in) << "\"\n"
         << "    metersPerUnit = 1\n    upAxis = \"Z\"\n"
         << "    startTimeCode = " << frames.front() << "\n    endTimeCode = " << frames.back()
         << "\n    timeCodesPerSecond = " << fps << "\n    framesPerSecond = " << fps << "\n)\n\n";
     out << "def Xform \"manyrods\"\n{\n";
     std::vector<std::vector<double>> pos(frames.size());
-    for (std::size_t k = 0; k < frames.size(); ++k) rd.read_positions(frames[k], pos[k]);
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      rd.read_positions(frames[k], pos[k]);
+      for (double x : pos[k])  // USD cannot hold them (and "-nan" does not parse)
+        if (!std::isfinite(x))
+          throw h5::H5Error(in + ": frame " + std::to_string(frames[k]) + " has non-finite positions");
+    }
     for (int g = 0; g < groups; ++g) {
       std::vector<int> members;
       for (int r = 0; r < rods; ++r)
@@ -111,6 +127,24 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
           first = false;
         }
       out << "] (\n            interpolation = \"vertex\"\n        )\n";
+      // extent (the schema asks for it wherever the points change): the
+      // points' box padded by half the widest section, per time sample
+      double pad = 0;
+      for (int r : members) pad = std::max(pad, 0.5 * o.rod_width[r]);
+      out << "        float3[] extent.timeSamples = {\n";
+      for (std::size_t k = 0; k < frames.size(); ++k) {
+        double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+        for (int r : members)
+          for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j)
+            for (int d = 0; d < 3; ++d) {
+              lo[d] = std::min(lo[d], pos[k][3 * j + d]);
+              hi[d] = std::max(hi[d], pos[k][3 * j + d]);
+            }
+        out << "            " << frames[k] << ": [(" << float(lo[0] - pad) << ", " << float(lo[1] - pad) << ", "
+            << float(lo[2] - pad) << "), (" << float(hi[0] + pad) << ", " << float(hi[1] + pad) << ", "
+            << float(hi[2] + pad) << ")],\n";
+      }
+      out << "        }\n";
       out << "        point3f[] points.timeSamples = {\n";
       for (std::size_t k = 0; k < frames.size(); ++k) {
         out << "            " << frames[k] << ": [";

@@ -19,18 +19,19 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "kernels/viscous_implicit.h"
 #include "manyrods/array.h"
+#include "manyrods/drive.h"
 #include "manyrods/material.h"
 
 namespace manyrods {
 
-using Vec3 = std::array<double, 3>;
-using Mat3 = std::array<double, 9>;  // row-major, rows = directors d1, d2, d3
+// Vec3, Mat3 (row-major, rows = directors d1, d2, d3): include/manyrods/drive.h
 
 // One rod as the user describes it (double precision, SI units).
 struct RodSpec {
@@ -51,6 +52,10 @@ struct RodSpec {
   // kernels/viscous_implicit.h and README "Stiff rods". Position Verlet only.
   bool stiff_implicit = false;
   std::optional<Mat3> root_frame;     // clamp frame at s = 0 (default: frames[0])
+  // A driven root (include/manyrods/drive.h): the clamp (node 0 and the
+  // clamp frame) follows this rigid motion of the given root; needs
+  // clamped_root. Rods may share one motion.
+  std::shared_ptr<const RootMotion> root_motion;
   // Rest shape. Empty = the given geometry is the rest shape (unstressed).
   std::vector<Vec3> rest_curvature;   // [n−1] U0 at interior Voronoi points, 1/m
   std::vector<Vec3> rest_strain;      // [n] V0, rest lengths are the given ones
@@ -81,6 +86,16 @@ struct Segment {
   int rod_begin = 0, rod_end = 0;  // rods
   bool fused = true;
   bool stiff = false;  // its rods are stiff (RodSpec::stiff_implicit): a segment holds only one kind
+  int driven_begin = 0, driven_end = 0;  // its entries of RodBatch::driven
+};
+
+// A rod with a driven root: its motion (index into RodBatch::motions) and the
+// root node and clamp frame it was built with (the pose-identity ones).
+struct DrivenRoot {
+  int rod = 0;
+  int motion = 0;
+  Vec3 x0{};
+  Mat3 q0{};
 };
 
 struct RodInfo {
@@ -90,6 +105,7 @@ struct RodInfo {
   bool clamped_root = false;
   bool stiff_implicit = false;  // RodSpec::stiff_implicit
   bool damped = false;          // some retardation time > 0
+  bool driven = false;          // RodSpec::root_motion set (an entry of RodBatch::driven)
   ElasticConstants elastic{};
   SectionProperties section{};
   RetardationTimes tau{};
@@ -151,6 +167,9 @@ class RodBatch {
   Loads<T> loads;
   std::vector<RodInfo> rods;
   std::vector<Segment> segments;  // cover [0, slots), in order
+  // Driven roots (include/manyrods/drive.h), by rod index; the distinct motions.
+  std::vector<DrivenRoot> driven;
+  std::vector<std::shared_ptr<const RootMotion>> motions;
 
   int rod_count() const { return static_cast<int>(rods.size()); }
   int slots() const { return slots_; }

@@ -1,0 +1,83 @@
+// include/manyrods/drive.h — driven roots: a clamped root that follows a
+// prescribed rigid motion (a head that turns, a shaker table, an animated
+// attachment point).
+//
+// A RootMotion gives a rigid pose P(t) = (R(t), c(t)) mapping a point p to
+// R(t) p + c(t). A rod whose RodSpec::root_motion is set is clamped at the
+// image of its given root under P(t): node 0 at R(t) x₀ + c(t), the clamp
+// frame's directors at R(t) d_i (rows: Q(t) = Q₀ R(t)ᵀ), where x₀, Q₀ are the
+// root and clamp frame the rod was built with. Many rods can share one motion
+// (a scalp): the host evaluates it once per step for all of them.
+//
+// How the step uses it (host/step.h apply_root_motion): at the start of each
+// step, t → t + h, node 0 is put at x(t) and given the mean velocity
+// (x(t + h) − x(t))/h, and the clamp frame is put at Q(t) with the constant
+// angular velocity that turns it into Q(t + h) over the step. The drifts then
+// carry the root exactly to the pose at t + h (the drift's rotation is exact
+// for constant ω) while the rod sees the root at second-order accurate
+// positions inside the step: Position Verlet stays second order with a
+// driven root (tests/test_drive.cpp measures it). In the implicit solve the
+// root's velocities are prescribed unknowns (kernels/viscous_implicit.h
+// root_drive_coupling). The motion does work on the rod: with a driven root
+// the energy budget has a source.
+#pragma once
+
+#include <array>
+#include <vector>
+
+namespace manyrods {
+
+using Vec3 = std::array<double, 3>;
+using Mat3 = std::array<double, 9>;  // row-major
+
+// p ↦ rotation · p + translation (rotation: a proper rotation matrix).
+struct Pose {
+  Mat3 rotation{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  Vec3 translation{0, 0, 0};
+};
+
+class RootMotion {
+ public:
+  virtual ~RootMotion() = default;
+  // The pose at time t (s). Called at the start of every step, possibly from
+  // several threads at once: must be thread-safe and deterministic.
+  virtual Pose at(double t) const = 0;
+};
+
+// Oscillation about a pivot: translation a·sin(2πft + φ) and a rotation by
+// θ·sin(2πft + φ) about `axis` through `pivot` (θ in radians; a shaker, a
+// nodding head). The pose at t = 0 is the identity for φ = 0.
+struct OscillatingMotion : RootMotion {
+  Vec3 translation_amplitude{0, 0, 0};  // m
+  Vec3 axis{0, 0, 1};                   // any length > 0 when rotation_amplitude ≠ 0
+  double rotation_amplitude = 0;        // rad
+  double frequency = 0;                 // Hz
+  double phase = 0;                     // rad
+  Vec3 pivot{0, 0, 0};                  // m
+  Pose at(double t) const override;
+};
+
+// Key poses interpolated as USD and Alembic time samples are: translations
+// linearly, rotations along the shortest arc (slerp, constant angular
+// velocity between keys), about `pivot`; held constant before the first key
+// and after the last. rotations[i] = {axis x, y, z, angle in rad}.
+struct KeyframedMotion : RootMotion {
+  std::vector<double> times;  // s, strictly increasing
+  std::vector<Vec3> translations;
+  std::vector<std::array<double, 4>> rotations;  // empty = no rotation
+  Vec3 pivot{0, 0, 0};
+  Pose at(double t) const override;
+  // Throws InputError naming the first bad entry.
+  void validate() const;
+};
+
+// A motion over one step [t, t + h] (host/step.h apply_root_motion): the
+// poses at both ends and the constant lab angular velocity Ω that turns one
+// into the other, exp(h [Ω]×) = R(t + h) R(t)ᵀ.
+struct RootStep {
+  Pose start, end;
+  Vec3 omega{0, 0, 0};  // rad/s
+};
+RootStep root_step(const RootMotion& motion, double t, double h);
+
+}  // namespace manyrods
