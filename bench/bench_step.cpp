@@ -102,6 +102,14 @@ void BM_step64_hairstiff_float(benchmark::State& s) {
 BENCHMARK(BM_step_hairstiff_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_step_hairstiff_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_step64_hairstiff_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+// The stiff hair with every root driven (a turning head): against hairstiff,
+// the cost of driven roots.
+void BM_step_hairturn_double(benchmark::State& s) { run_step<double, kAllTerms, Viscous::implicit>(s, "hairturn", true); }
+void BM_step64_hairturn_float(benchmark::State& s) {
+  run_step<float, kAllTerms, Viscous::implicit, 64>(s, "hairturn", true);
+}
+BENCHMARK(BM_step_hairturn_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_step64_hairturn_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 
 }  // namespace
 

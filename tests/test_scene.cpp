@@ -94,7 +94,7 @@ TEST(Scene, HairGroomRootsLieOnTheScalpAndGrowOutward) {
   const Scene s = load_scene(kScenes + "/hair_groom.toml");
   ASSERT_EQ(s.groups.size(), 1u);
   ASSERT_EQ(int(s.rods.size()), s.groups[0].count);
-  EXPECT_EQ(s.sim.precision, Precision::float32);
+  EXPECT_EQ(s.sim.precision, Precision::float64);  // stiff rods: double (README "Not yet here")
   const double cap = std::cos(70.0 * std::numbers::pi / 180);
   for (const RodSpec& r : s.rods) {
     const Vec3& x0 = r.nodes[0];
