@@ -117,11 +117,12 @@ void segment_kick(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
     kick<kT>(b, h, ex, r);
 }
 
-// The driven roots of segment r at the start of a step [t, t + h]
-// (include/manyrods/drive.h): node 0 at x(t) with the mean velocity
-// (x(t + h) − x(t))/h, the clamp frame (root ghost element) at Q(t) with the
-// angular velocity that turns it into Q(t + h), so that the step's drifts end
-// exactly at the pose of t + h. Each segment evaluates the motions it uses.
+// The driven roots of segment r at the start of a step (Position Verlet) or
+// drift (PEFRL) [t, t + h] (include/manyrods/drive.h): node 0 at x(t) with
+// the mean velocity (x(t + h) − x(t))/h, the clamp frame (root ghost element)
+// at Q(t) with the angular velocity that turns it into Q(t + h), so that the
+// drifts end exactly at the pose of t + h (h < 0 for PEFRL's backward
+// drifts). Each segment evaluates the motions it uses.
 template <class T>
 void apply_root_motion(RodBatch<T>& b, const Segment& r, double t, double h) {
   const StateView<T> s = b.state_view();
@@ -437,17 +438,28 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {}) {
     kick<kExplicit, kEulerOrder>(b, h, ex);
     if constexpr (kImplicit) viscous_update<kT>(b, T(0.25) * dt, ex);
   };
-  for (const Segment& r : b.segments)
-    if (r.driven_end > r.driven_begin) apply_root_motion(b, r, b.state.time, double(dt));
-  drift(b, xi, ex);
+  // Driven roots follow their motion drift by drift: each drift of length
+  // c·dt starts the root at its pose of that stage's time and lands on the
+  // next stage's (so the kicks see the root where it is at their time and
+  // PEFRL keeps its order; tests/test_drive.cpp).
+  double t = b.state.time;
+  auto root_drift = [&](T h, double c) {
+    const bool any = !b.driven.empty();
+    if (any)
+      for (const Segment& r : b.segments)
+        if (r.driven_end > r.driven_begin) apply_root_motion(b, r, t, c * double(dt));
+    drift(b, h, ex);
+    t += c * double(dt);
+  };
+  root_drift(xi, Pefrl::xi);
   kick_stage(outer);
-  drift(b, chi, ex);
+  root_drift(chi, Pefrl::chi);
   kick_stage(inner);
-  drift(b, mid, ex);
+  root_drift(mid, 1 - 2 * (Pefrl::chi + Pefrl::xi));
   kick_stage(inner);
-  drift(b, chi, ex);
+  root_drift(chi, Pefrl::chi);
   kick_stage(outer);
-  drift(b, xi, ex);
+  root_drift(xi, Pefrl::xi);
   if (renormalize_after<T>(b.state.steps + 1)) renormalize_frames(b, ex, whole(b));
   b.state.time += double(dt);
   b.state.steps += 1;

@@ -10,16 +10,19 @@
 // (a scalp): the host evaluates it once per step for all of them.
 //
 // How the step uses it (host/step.h apply_root_motion): at the start of each
-// step, t → t + h, node 0 is put at x(t) and given the mean velocity
+// Position Verlet step, t → t + h, node 0 is put at x(t) and given the mean velocity
 // (x(t + h) − x(t))/h, and the clamp frame is put at Q(t) with the constant
 // angular velocity that turns it into Q(t + h) over the step. The drifts then
 // carry the root exactly to the pose at t + h (the drift's rotation is exact
 // for constant ω) while the rod sees the root at second-order accurate
 // positions inside the step: Position Verlet stays second order with a
-// driven root (tests/test_drive.cpp measures it). In the implicit solve the
-// root's velocities are prescribed unknowns (kernels/viscous_implicit.h
-// root_drive_coupling). The motion does work on the rod: with a driven root
-// the energy budget has a source.
+// driven root. PEFRL does the same drift by drift (the root is put at the
+// pose of each stage's time), and stays fourth order (tests/test_drive.cpp
+// measures both: 2.00 and 4.01). In the implicit solve the root's
+// velocities are prescribed unknowns, handled by solving for the velocities
+// relative to the root's rigid motion (kernels/viscous_implicit.h
+// rigid_shift). The motion does work on the rod: with a driven root the
+// energy budget has a source.
 #pragma once
 
 #include <array>
