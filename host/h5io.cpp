@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <sstream>
+#include <utility>
 
 namespace manyrods::h5 {
 namespace {
@@ -344,6 +345,27 @@ void Writer::write_checkpoint(const Checkpoint& c) {
   put("elem_Q", c.elem_Q, 9);
   put("elem_w", c.elem_w, 3);
   if (!c.node_xc.empty()) put("node_xc", c.node_xc, 3);
+  if (c.probe_count > 0) {
+    const hsize_t p = hsize_t(c.probe_count), n = hsize_t(c.probe_samples);
+    if (c.probe_time.size() != p * n || c.probe_tip.size() != p * n * 3 || c.probe_max_strain.size() != p ||
+        c.probe_dissipated.size() != p || c.probe_rate.size() != p)
+      fail(w.tmp, "checkpoint: inconsistent probe records");
+    const Id pg = checked(H5Gcreate2(g.get(), "probes", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                          "cannot create /checkpoint/probes");
+    auto put_d = [&](const char* name, const std::vector<double>& v, std::vector<hsize_t> dims) {
+      std::vector<hsize_t> chunk = dims;
+      for (hsize_t& c2 : chunk) c2 = std::max<hsize_t>(1, std::min<hsize_t>(c2, 1 << 12));
+      const Id d = create_dataset(pg.get(), name, H5T_NATIVE_DOUBLE, dims, chunk, false, w.tmp);
+      if (!v.empty())
+        check(H5Dwrite(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), w.tmp,
+              std::string("cannot write checkpoint/probes/") + name);
+    };
+    put_d("time", c.probe_time, {p, n});
+    put_d("tip", c.probe_tip, {p, n, 3});
+    put_d("max_strain", c.probe_max_strain, {p});
+    put_d("dissipated", c.probe_dissipated, {p});
+    put_d("dissipation_rate", c.probe_rate, {p});
+  }
 }
 
 void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
@@ -423,7 +445,50 @@ Checkpoint read_checkpoint(const std::string& path) {
   get("elem_Q", c.elem_Q, 9);
   get("elem_w", c.elem_w, 3);
   if (H5Lexists(g.get(), "node_xc", H5P_DEFAULT) > 0) get("node_xc", c.node_xc, 3);
+  if (H5Lexists(g.get(), "probes", H5P_DEFAULT) > 0) {
+    const Id pg = checked(H5Gopen2(g.get(), "probes", H5P_DEFAULT), H5Gclose, path,
+                          "cannot open /checkpoint/probes");
+    auto get_d = [&](const char* name, std::vector<double>& v, std::size_t rank) {
+      const Id d = open_dataset(pg.get(), name, path);
+      const auto dims = dataset_dims(d.get());
+      if (dims.size() != rank) fail(path, std::string("/checkpoint/probes/") + name + " has shape " + dims_str(dims));
+      std::size_t n = 1;
+      for (hsize_t x : dims) n *= std::size_t(x);
+      v.resize(n);
+      if (n > 0)
+        check(H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path,
+              std::string("cannot read /checkpoint/probes/") + name + " (truncated or damaged file?)");
+      return dims;
+    };
+    const auto dt_dims = get_d("time", c.probe_time, 2);
+    c.probe_count = std::int64_t(dt_dims[0]);
+    c.probe_samples = std::int64_t(dt_dims[1]);
+    const auto tip_dims = get_d("tip", c.probe_tip, 3);
+    if (tip_dims != std::vector<hsize_t>{dt_dims[0], dt_dims[1], 3})
+      fail(path, "/checkpoint/probes/tip has shape " + dims_str(tip_dims) + ", expected " +
+                     dims_str({dt_dims[0], dt_dims[1], 3}));
+    for (auto [name, v] : {std::pair{"max_strain", &c.probe_max_strain}, std::pair{"dissipated", &c.probe_dissipated},
+                           std::pair{"dissipation_rate", &c.probe_rate}}) {
+      const auto d = get_d(name, *v, 1);
+      if (d[0] != dt_dims[0])
+        fail(path, std::string("/checkpoint/probes/") + name + " has " + std::to_string(d[0]) + " entries, " +
+                       std::to_string(dt_dims[0]) + " probes expected");
+    }
+  }
   c.from_sweep = H5Lexists(f.get(), "sweep", H5P_DEFAULT) > 0;
+  if (c.from_sweep) {
+    const Id sg = checked(H5Gopen2(f.get(), "sweep", H5P_DEFAULT), H5Gclose, path, "cannot open /sweep");
+    c.sweep_first_rod = read_vector<std::int32_t>(sg.get(), "variation_first_rod", H5T_NATIVE_INT32, path);
+    const Id pg = checked(H5Gopen2(sg.get(), "parameters", H5P_DEFAULT), H5Gclose, path,
+                          "missing group /sweep/parameters");
+    std::stringstream ss(read_attr_string(pg.get(), "order", path, "/sweep/parameters."));
+    for (std::string n; std::getline(ss, n);) {
+      c.sweep_parameters.push_back({n, read_vector<double>(pg.get(), n.c_str(), H5T_NATIVE_DOUBLE, path)});
+      if (c.sweep_parameters.back().values.size() != c.sweep_first_rod.size())
+        fail(path, "/sweep/parameters/" + n + " has " + std::to_string(c.sweep_parameters.back().values.size()) +
+                       " values, " + std::to_string(c.sweep_first_rod.size()) + " variations expected");
+    }
+  }
   return c;
 }
 

@@ -14,6 +14,8 @@
 //                         elem_Q [9, slots], elem_w [3, slots] in the run's
 //                         precision, raw slot arrays (ghosts included), and
 //                         attributes time, steps, dt, dissipated, ...
+//                         and, for a sweep, probes/{time, tip, max_strain,
+//                         dissipated, dissipation_rate} (its records so far)
 //   /sweep                (manyrods sweep) parameters and summary columns
 // Root attributes: format = "manyrods", format_version = 1, precision,
 // integrator, dt. Frames are chunked one frame per chunk (at most 2^16 nodes)
@@ -55,8 +57,15 @@ struct EnergyRow {
   double kinetic = 0, elastic = 0, potential = 0, dissipated = 0, dissipation_rate = 0;
 };
 
+// A named column of values per sweep variation.
+struct Column {
+  std::string name;
+  std::vector<double> values;
+};
+
 // The state of a run at one step: the batch's State arrays (raw slots, the
-// run's precision; stored as bytes) plus what continues the energy record.
+// run's precision; stored as bytes) plus what continues the energy record
+// and, for a sweep, its per-variation records (host/runner.h ProbeRecord).
 struct Checkpoint {
   bool float32 = false;
   std::int64_t slots = 0;
@@ -72,12 +81,16 @@ struct Checkpoint {
   // float only: the positions' compensation (State::node_xc) [3][slots];
   // empty for double (and zero when an older file lacks it)
   std::vector<unsigned char> node_xc;
-};
-
-// A named column of values per sweep variation.
-struct Column {
-  std::string name;
-  std::vector<double> values;
+  // A sweep's probe records up to this state (/checkpoint/probes; all
+  // probes are sampled together): time [probes, samples], tip
+  // [probes, samples, 3], and per probe max_strain, dissipated and the last
+  // dissipation rate. probe_count = 0: none.
+  std::int64_t probe_count = 0, probe_samples = 0;
+  std::vector<double> probe_time, probe_tip, probe_max_strain, probe_dissipated, probe_rate;
+  // read only, from a sweep's file: its variations (/sweep/parameters) and
+  // the first rod of each (/sweep/variation_first_rod)
+  std::vector<Column> sweep_parameters;
+  std::vector<std::int32_t> sweep_first_rod;
 };
 
 class Writer {

@@ -139,7 +139,28 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
   // the frame grid (then the restarted file's frames are exactly those of
   // the uninterrupted run from there on).
   if (b.state.steps % per_frame == 0) write_frame(scene_energies(b, choice));
-  sample_probes(true);
+  if (restart && !opt.probes.empty()) {
+    // a sweep continued: its records so far, as the uninterrupted run has
+    // them at this step (which it sampled already)
+    if (restart->probe_count != std::int64_t(opt.probes.size()))
+      throw SceneError(s.source + ": the checkpoint holds records of " + std::to_string(restart->probe_count) +
+                       " variations, the sweep has " + std::to_string(opt.probes.size()));
+    const std::size_t n = std::size_t(restart->probe_samples);
+    for (std::size_t i = 0; i < probes.size(); ++i) {
+      ProbeRecord& rec = probes[i];
+      rec.time.assign(restart->probe_time.begin() + std::ptrdiff_t(i * n),
+                      restart->probe_time.begin() + std::ptrdiff_t((i + 1) * n));
+      for (std::size_t k = 0; k < n; ++k) {
+        const double* t = &restart->probe_tip[3 * (i * n + k)];
+        rec.tip.push_back({t[0], t[1], t[2]});
+      }
+      rec.max_strain = restart->probe_max_strain[i];
+      rec.dissipated = restart->probe_dissipated[i];
+      probe_rate[i] = restart->probe_rate[i];
+    }
+  } else {
+    sample_probes(true);
+  }
   const Exec ex{std::max(1, opt.threads)};
   const std::int64_t stop_request = opt.until >= 0 ? std::llround(opt.until / res.dt) : total;
   const auto t0 = clock::now();
@@ -196,6 +217,18 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
   to_bytes(b.state.elem_Q, c.elem_Q);
   to_bytes(b.state.elem_w, c.elem_w);
   if (b.state.node_xc[0].size()) to_bytes(b.state.node_xc, c.node_xc);
+  if (!probes.empty()) {
+    c.probe_count = std::int64_t(probes.size());
+    c.probe_samples = std::int64_t(probes[0].time.size());
+    for (std::size_t i = 0; i < probes.size(); ++i) {
+      const ProbeRecord& rec = probes[i];
+      c.probe_time.insert(c.probe_time.end(), rec.time.begin(), rec.time.end());
+      for (const Vec3& t : rec.tip) c.probe_tip.insert(c.probe_tip.end(), t.begin(), t.end());
+      c.probe_max_strain.push_back(rec.max_strain);
+      c.probe_dissipated.push_back(rec.dissipated);
+      c.probe_rate.push_back(probe_rate[i]);
+    }
+  }
   w.write_checkpoint(c);
   if (opt.before_finish) opt.before_finish(w, probes);
   w.finish();

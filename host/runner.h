@@ -70,7 +70,8 @@ struct RunResult {
 };
 
 // Runs the scene (from its initial state, or from `restart`, whose scene
-// must be `s`) and writes the output. Throws SceneError, h5::H5Error,
+// must be `s`; with probes, a sweep's checkpoint, whose records continue)
+// and writes the output. Throws SceneError, h5::H5Error,
 // NonFiniteError (the output file is then not written; an existing one is
 // kept).
 RunResult run_scene(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart = nullptr);

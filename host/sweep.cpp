@@ -10,6 +10,7 @@
 #include <limits>
 #include <numbers>
 #include <sstream>
+#include <utility>
 
 namespace manyrods::scene {
 namespace {
@@ -132,15 +133,39 @@ std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int
 
 Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
                  int samples, std::uint64_t seed) {
+  std::vector<std::string> names;
+  for (const Vary& v : vary) names.push_back(v.key);
+  return make_sweep(text, source, std::move(names), sweep_points(vary, samples, seed));
+}
+
+Sweep sweep_of_checkpoint(const h5::Checkpoint& c, const std::string& path) {
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> points(c.sweep_first_rod.size());
+  for (const h5::Column& col : c.sweep_parameters) {
+    names.push_back(col.name);
+    for (std::size_t i = 0; i < points.size(); ++i) points[i].push_back(col.values[i]);
+  }
+  Sweep sw = make_sweep(c.scene_text, path + ":/scene", std::move(names), std::move(points));
+  for (std::size_t i = 0; i < c.sweep_first_rod.size(); ++i)
+    if (sw.first_rod[i] != c.sweep_first_rod[i])
+      throw SceneError(path + ": variation " + std::to_string(i) + " starts at rod " +
+                       std::to_string(c.sweep_first_rod[i]) + " in the file but at rod " +
+                       std::to_string(sw.first_rod[i]) + " when rebuilt (a damaged file?)");
+  return sw;
+}
+
+Sweep make_sweep(const std::string& text, const std::string& source, std::vector<std::string> names,
+                 std::vector<std::vector<double>> points) {
   Sweep sw;
-  for (const Vary& v : vary) sw.names.push_back(v.key);
-  sw.points = sweep_points(vary, samples, seed);
+  sw.names = std::move(names);
+  sw.points = std::move(points);
+  const std::vector<std::string>& keys = sw.names;
   sw.scene.source = source;
   sw.scene.text = text;
   sw.first_rod.push_back(0);
   for (std::size_t i = 0; i < sw.points.size(); ++i) {
     std::vector<Override> ov;
-    for (std::size_t d = 0; d < vary.size(); ++d) ov.push_back({vary[d].key, sw.points[i][d]});
+    for (std::size_t d = 0; d < keys.size(); ++d) ov.push_back({keys[d], sw.points[i][d]});
     Scene s;
     try {
       s = parse_scene(text, source, ov);
@@ -148,7 +173,7 @@ Sweep make_sweep(const std::string& text, const std::string& source, const std::
       std::ostringstream os;
       os.precision(10);
       os << e.what() << " (variation " << i << ":";
-      for (std::size_t d = 0; d < vary.size(); ++d) os << " " << vary[d].key << "=" << sw.points[i][d];
+      for (std::size_t d = 0; d < keys.size(); ++d) os << " " << keys[d] << "=" << sw.points[i][d];
       os << ")";
       throw SceneError(os.str());
     }

@@ -47,6 +47,13 @@ struct Sweep {
 // validated like a scene file) and concatenates the rods.
 Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
                  int samples, std::uint64_t seed);
+// The same for given variations: parameter keys and one row of values per
+// variation (a sweep file's /sweep/parameters, to continue it).
+Sweep make_sweep(const std::string& text, const std::string& source, std::vector<std::string> names,
+                 std::vector<std::vector<double>> points);
+// The sweep of a sweep file's checkpoint (h5::read_checkpoint), to continue
+// it; SceneError when its rods do not match the file's.
+Sweep sweep_of_checkpoint(const h5::Checkpoint& c, const std::string& path);
 
 // Period and damping ratio of a decaying oscillation u(t) (samples in time
 // order): maxima and minima refined by a parabola through three samples;

@@ -76,6 +76,14 @@ h5::Checkpoint checkpoint(std::int64_t slots) {
   c.node_v = bytes_of(random_values<T>(3 * slots, 2));
   c.elem_Q = bytes_of(random_values<T>(9 * slots, 3));
   c.elem_w = bytes_of(random_values<T>(3 * slots, 4));
+  // a sweep's records: 2 probes × 5 samples
+  c.probe_count = 2;
+  c.probe_samples = 5;
+  c.probe_time = random_values<double>(10, 5);
+  c.probe_tip = random_values<double>(30, 6);
+  c.probe_max_strain = {0.01, 0.02};
+  c.probe_dissipated = {1e-3, 2e-3};
+  c.probe_rate = {3e-4, 4e-4};
   return c;
 }
 
@@ -147,6 +155,14 @@ void round_trip() {
   EXPECT_EQ(c.node_v, ref.node_v);
   EXPECT_EQ(c.elem_Q, ref.elem_Q);
   EXPECT_EQ(c.elem_w, ref.elem_w);
+  EXPECT_EQ(c.probe_count, 2);
+  EXPECT_EQ(c.probe_samples, 5);
+  EXPECT_EQ(c.probe_time, ref.probe_time);
+  EXPECT_EQ(c.probe_tip, ref.probe_tip);
+  EXPECT_EQ(c.probe_max_strain, ref.probe_max_strain);
+  EXPECT_EQ(c.probe_dissipated, ref.probe_dissipated);
+  EXPECT_EQ(c.probe_rate, ref.probe_rate);
+  EXPECT_FALSE(c.from_sweep);
 }
 
 TEST(H5io, RoundTripDouble) { round_trip<double>(); }

@@ -1,8 +1,8 @@
 // tools/manyrods.cpp — the command-line tool (issue 6; docs/scenes.md).
 //
 //   manyrods run scene.toml -o out.h5 [--threads N] [--until T] [--duration T]
-//   manyrods run --restart checkpoint.h5 -o out.h5
-//   manyrods sweep scene.toml --vary KEY=lo:hi:n [--vary ...] [--samples N --seed S] -o sweep.h5 [--csv F]
+//   manyrods run --restart checkpoint.h5 -o out.h5 [--duration T] [--csv F]   (a run or a sweep)
+//   manyrods sweep scene.toml --vary KEY=lo:hi:n [--vary ...] [--samples N --seed S] [--until T] -o sweep.h5 [--csv F]
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
 //
@@ -270,6 +270,28 @@ int plot(const std::string& in, std::string dir) {
   return 0;
 }
 
+// A sweep (new, or continued from its file's checkpoint) into opt.output,
+// with the per-variation summary in /sweep and in `csv` (default: the
+// output with .csv).
+int run_sweep(const Sweep& sw, RunOptions opt, std::string csv, const h5::Checkpoint* restart) {
+  if (csv.empty()) csv = fs::path(opt.output).replace_extension(".csv").string();
+  opt.probes = sw.probes;
+  const std::vector<h5::Column> params = sweep_parameters(sw);
+  std::vector<h5::Column> summary;
+  opt.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>& rec) {
+    summary = sweep_summary(sw, rec);
+    std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
+    w.write_sweep(params, summary, first);
+  };
+  std::fprintf(stderr, "manyrods sweep: %zu variations, %zu rods in one batch%s\n", sw.points.size(),
+               sw.scene.rods.size(), restart ? " (continued)" : "");
+  const RunResult r = run_scene(sw.scene, opt, restart);
+  write_csv(csv, params, summary);
+  summary_line(r, opt.output);
+  std::fprintf(stderr, "manyrods: sweep summary -> %s\n", csv.c_str());
+  return g_interrupt ? 130 : 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -307,6 +329,7 @@ int main(int argc, char** argv) {
                   "stop at this simulated time (s); the file keeps a checkpoint to --restart from")
       ->check(non_negative);
   run->add_option("--duration", duration, "override [simulation] duration (s)")->check(positive);
+  run->add_option("--csv", csv, "restarting a sweep: summary CSV (default: the output with .csv)");
   run->add_flag("--no-progress", no_progress,
                 "no progress line on stderr (default: shown when stderr is a terminal)");
   run->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
@@ -325,6 +348,10 @@ int main(int argc, char** argv) {
   sweep->add_option("--csv", csv, "summary CSV (default: the output with .csv)");
   sweep->add_option("--threads", threads, "OpenMP threads")->check(positive);
   sweep->add_option("--duration", duration, "override [simulation] duration (s)")->check(positive);
+  sweep
+      ->add_option("--until", until,
+                   "stop at this simulated time (s); the file keeps a checkpoint to continue with run --restart")
+      ->check(non_negative);
   sweep->add_flag("--no-progress", no_progress,
                   "no progress line on stderr (default: shown when stderr is a terminal)");
   sweep->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
@@ -363,12 +390,9 @@ int main(int argc, char** argv) {
       RunResult r;
       if (!restart.empty()) {
         const h5::Checkpoint c = h5::read_checkpoint(restart);
-        if (c.from_sweep) {
-          std::fprintf(stderr,
-                       "manyrods: error: %s: restarting a sweep is not supported (run the sweep again with a "
-                       "longer --duration)\n",
-                       restart.c_str());
-          return 2;
+        if (c.from_sweep) {  // a sweep continued: the same variations, its records go on
+          const Sweep sw = sweep_of_checkpoint(c, restart);
+          return run_sweep(sw, opt, csv, &c);
         }
         const Scene s = parse_scene(c.scene_text, restart + ":/scene");
         r = run_scene(s, opt, &c);
@@ -383,28 +407,15 @@ int main(int argc, char** argv) {
       std::vector<Vary> vs;
       for (const std::string& v : vary) vs.push_back(parse_vary(v));
       const Sweep sw = make_sweep(read_file(scene_path), scene_path, vs, samples, seed);
-      if (csv.empty()) csv = fs::path(output).replace_extension(".csv").string();
       RunOptions opt;
       opt.output = output;
       opt.threads = threads;
+      opt.until = until;
       opt.duration = duration;
       opt.progress = progress;
       opt.interrupt = &g_interrupt;
-      opt.probes = sw.probes;
-      std::vector<h5::Column> params = sweep_parameters(sw), summary;
-      opt.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>& rec) {
-        summary = sweep_summary(sw, rec);
-        std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
-        w.write_sweep(params, summary, first);
-      };
-      std::fprintf(stderr, "manyrods sweep: %zu variations, %zu rods in one batch\n", sw.points.size(),
-                   sw.scene.rods.size());
       std::signal(SIGINT, on_sigint);
-      const RunResult r = run_scene(sw.scene, opt);
-      write_csv(csv, params, summary);
-      summary_line(r, output);
-      std::fprintf(stderr, "manyrods: sweep summary -> %s\n", csv.c_str());
-      return g_interrupt ? 130 : 0;
+      return run_sweep(sw, opt, csv, nullptr);
     }
     if (exp->parsed()) return export_usd(input, usd, every);
     if (plt->parsed()) return plot(input, plot_dir);
