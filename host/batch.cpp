@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <sstream>
+#include <unordered_map>
 
 namespace manyrods {
 namespace {
@@ -77,6 +78,7 @@ void validate_rod(const RodSpec& s) {
   if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
   if (s.root_motion && !s.clamped_root) fail("root_motion: a driven root must be clamped (set clamped_root)");
   if (auto* k = dynamic_cast<const KeyframedMotion*>(s.root_motion.get())) k->validate();
+  if (auto* o = dynamic_cast<const OscillatingMotion*>(s.root_motion.get())) o->validate();
   if (!std::isfinite(s.shear_stretch_scale) || !(s.shear_stretch_scale > 0))
     fail("shear_stretch_scale = " + std::to_string(s.shear_stretch_scale) + ": must be a finite number > 0");
   auto check_vectors = [](const std::vector<Vec3>& v, std::size_t need, const char* name) {
@@ -411,12 +413,13 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
   }
   close_segment(int(specs.size()));
   // driven roots: one entry per rod, one motion per distinct pointer
+  std::unordered_map<const RootMotion*, int> motion_index;
   for (std::size_t r = 0; r < specs.size(); ++r) {
     const RodSpec& s = specs[r];
     if (!s.root_motion) continue;
-    auto it = std::find(b.motions.begin(), b.motions.end(), s.root_motion);
-    if (it == b.motions.end()) it = b.motions.insert(b.motions.end(), s.root_motion);
-    b.driven.push_back({int(r), int(it - b.motions.begin()), s.nodes[0], s.root_frame ? *s.root_frame : s.frames[0]});
+    const auto [it, added] = motion_index.try_emplace(s.root_motion.get(), int(b.motions.size()));
+    if (added) b.motions.push_back(s.root_motion);
+    b.driven.push_back({int(r), it->second, s.nodes[0], s.root_frame ? *s.root_frame : s.frames[0]});
   }
   for (Segment& seg : b.segments) {
     auto by_rod = [](const DrivenRoot& d, int rod) { return d.rod < rod; };

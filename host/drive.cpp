@@ -37,8 +37,26 @@ Eigen::Quaterniond key_rotation(const std::array<double, 4>& r) {
 
 }  // namespace
 
+void OscillatingMotion::validate() const {
+  auto bad = [](const std::string& what) { throw InputError("root motion: " + what); };
+  for (double v : translation_amplitude)
+    if (!std::isfinite(v)) bad("translation_amplitude is not finite");
+  for (double v : pivot)
+    if (!std::isfinite(v)) bad("pivot is not finite");
+  if (!std::isfinite(rotation_amplitude)) bad("rotation_amplitude is not finite");
+  if (rotation_amplitude != 0 && !(to_eigen(axis).norm() > 0 && std::isfinite(to_eigen(axis).norm())))
+    bad("axis must be a finite non-zero vector when rotation_amplitude is not 0");
+  if (!std::isfinite(frequency) || frequency < 0) bad("frequency must be a finite number >= 0");
+  if (!std::isfinite(phase)) bad("phase is not finite");
+  if (!std::isfinite(ramp_time) || ramp_time < 0) bad("ramp_time must be a finite number >= 0");
+}
+
 Pose OscillatingMotion::at(double t) const {
-  const double s = std::sin(2 * std::numbers::pi * frequency * t + phase);
+  double s = std::sin(2 * std::numbers::pi * frequency * t + phase);
+  if (ramp_time > 0 && t < ramp_time) {
+    const double x = std::max(t, 0.0) / ramp_time;
+    s *= x * x * (3 - 2 * x);
+  }
   const E3 axis_e = to_eigen(axis);
   const EM3 r = rotation_amplitude != 0
                     ? Eigen::AngleAxisd(rotation_amplitude * s, axis_e.normalized()).toRotationMatrix()

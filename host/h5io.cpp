@@ -463,6 +463,8 @@ Checkpoint read_checkpoint(const std::string& path) {
     const auto dt_dims = get_d("time", c.probe_time, 2);
     c.probe_count = std::int64_t(dt_dims[0]);
     c.probe_samples = std::int64_t(dt_dims[1]);
+    if (c.probe_count < 1 || c.probe_samples < 1)
+      fail(path, "/checkpoint/probes/time has shape " + dims_str(dt_dims) + ": no records");
     const auto tip_dims = get_d("tip", c.probe_tip, 3);
     if (tip_dims != std::vector<hsize_t>{dt_dims[0], dt_dims[1], 3})
       fail(path, "/checkpoint/probes/tip has shape " + dims_str(tip_dims) + ", expected " +

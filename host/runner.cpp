@@ -142,10 +142,18 @@ RunResult run(const Scene& s, const RunOptions& opt, const h5::Checkpoint* resta
   if (restart && !opt.probes.empty()) {
     // a sweep continued: its records so far, as the uninterrupted run has
     // them at this step (which it sampled already)
+    if (restart->probe_count == 0)
+      throw SceneError(s.source + ": the checkpoint has no sweep records (/checkpoint/probes): a sweep file "
+                                  "written before sweeps could be continued; run the sweep again");
     if (restart->probe_count != std::int64_t(opt.probes.size()))
       throw SceneError(s.source + ": the checkpoint holds records of " + std::to_string(restart->probe_count) +
                        " variations, the sweep has " + std::to_string(opt.probes.size()));
     const std::size_t n = std::size_t(restart->probe_samples);
+    for (std::size_t i = 0; i < probes.size(); ++i)
+      if (restart->probe_time[(i + 1) * n - 1] != restart->time)
+        throw SceneError(s.source + ": the sweep records of variation " + std::to_string(i) + " end at t = " +
+                         std::to_string(restart->probe_time[(i + 1) * n - 1]) + " s, the checkpoint is at " +
+                         std::to_string(restart->time) + " s (a damaged file?)");
     for (std::size_t i = 0; i < probes.size(); ++i) {
       ProbeRecord& rec = probes[i];
       rec.time.assign(restart->probe_time.begin() + std::ptrdiff_t(i * n),

@@ -244,7 +244,7 @@ Root parse_root(const Table& g) {
                                : std::string();
   if (kind == "oscillate") {
     const Table m = g.sub("root", {"motion", "translation_amplitude", "rotation_axis", "rotation_amplitude",
-                                   "frequency", "phase", "pivot"});
+                                   "frequency", "phase", "ramp_time", "pivot"});
     auto o = std::make_shared<OscillatingMotion>();
     o->translation_amplitude = m.vec3("translation_amplitude", {0, 0, 0});
     o->rotation_amplitude = m.number("rotation_amplitude", 0) * deg;
@@ -256,6 +256,7 @@ Root parse_root(const Table& g) {
     }
     o->frequency = m.positive("frequency");
     o->phase = m.number("phase", 0) * deg;
+    o->ramp_time = m.has("ramp_time") ? m.non_negative("ramp_time") : 0.0;
     o->pivot = m.vec3("pivot", {0, 0, 0});
     r.motion = o;
   } else if (kind == "keyframes") {

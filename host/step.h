@@ -15,10 +15,12 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <omp.h>
 
@@ -170,8 +172,9 @@ enum class Viscous { implicit, explicit_rate };
 
 // Runs run(segment, exec, thread) on every segment: the fused ones in
 // parallel, every other one at a time (even, then odd: no slot is read while
-// another thread writes it; segments only read their neighbours' ghost
-// slots, which never change), `thread` being the OpenMP thread number; then
+// another thread writes it; segments only read their neighbours' root
+// ghost nodes, which never move — a driven root moves node 0 and the clamp
+// frame of its own rods), `thread` being the OpenMP thread number; then
 // the big ones one by one with all threads (thread = 0).
 template <class T, class F>
 void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
@@ -260,7 +263,8 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
     // driven roots: the solve runs on the velocities relative to the rigid
     // motion of the root (kernels/viscous_implicit.h rigid_shift)
     // (v₀, ω_g of the root; Ω = Q_gᵀ ω_g and x₀ do not change in the solve)
-    vec3<T> root_v[kChunk][2];
+    thread_local std::vector<std::array<vec3<T>, 2>> root_v;
+    if (r.driven_end > r.driven_begin && root_v.size() < std::size_t(n)) root_v.resize(std::size_t(n));
     auto shift = [&](const RodInfo& rod, const vec3<T>* root, T sign) {
       const int k = rod.offset + 1;
       const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, k - 1), root[1]);
@@ -272,7 +276,7 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
       if (const RodInfo& rod = b.rods[order[i]]; rod.driven) {
         root_v[i][0] = load3(s.node_v, rod.offset + 1);
         root_v[i][1] = load3(s.elem_w, rod.offset);
-        shift(rod, root_v[i], T(-1));
+        shift(rod, root_v[i].data(), T(-1));
       }
     // One compiled copy of the kernels for both branches below (not inlined
     // twice: two copies may contract a·b + c into FMAs differently, and the
@@ -308,7 +312,7 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
       for (int it = 0; it < items; ++it) solve(it, thread);
     }
     for (int i = 0; i < n; ++i)
-      if (const RodInfo& rod = b.rods[order[i]]; rod.driven) shift(rod, root_v[i], T(1));
+      if (const RodInfo& rod = b.rods[order[i]]; rod.driven) shift(rod, root_v[i].data(), T(1));
   }
 }
 template <Terms kT, int kLanes = 0, class T>

@@ -4,8 +4,10 @@
 //   dynamic (kick), length h:     v ← v + h m⁻¹ (F + m g + f_ext)
 //                                 ω ← ω + h J⁻¹ (C + Q c_ext + (Jω̄) × ω̄)  (midpoint ω̄)
 // The exponential is exact for constant ω and keeps Q orthonormal to
-// round-off. Clamped and ghost entries have m⁻¹ = J⁻¹ = 0, so they never move
-// (the clamp frame lives in a ghost element with ω = 0: exp(0) = I exactly).
+// round-off. Clamped and ghost entries have m⁻¹ = J⁻¹ = 0, so the kicks never
+// move them (the clamp frame lives in a ghost element with ω = 0: exp(0) = I
+// exactly); a driven root's node 0 and clamp frame carry the velocities the
+// host gives them (host/step.h apply_root_motion) and drift with them.
 //
 // reads/writes: node_x, node_v (node k), elem_Q, elem_w (element k)
 // reads: node_mass, node_inv_mass, elem_inv_inertia, loads, scratch

@@ -175,12 +175,18 @@ TEST(Cli, ExampleScenesRun) {
 TEST(Cli, RestartIsBitIdenticalToAnUninterruptedRun) {
   struct Variant {
     const char* name;
-    std::string sim;
+    std::string sim, rods;
   };
-  for (const Variant& v : {Variant{"double_verlet", ""},
-                           Variant{"float_pefrl", "precision = \"float\"\nintegrator = \"pefrl\"\n"}}) {
+  // driven roots too: the root's pose is re-imposed from the motion at each step
+  const std::string driven =
+      "root = { motion = \"oscillate\", translation_amplitude = [0.01, 0.0, 0.0], rotation_axis = [0.0, 1.0, "
+      "0.0], rotation_amplitude = 10.0, frequency = 3.0, ramp_time = 0.1 }\n";
+  const std::string pefrl_float = "precision = \"float\"\nintegrator = \"pefrl\"\n";
+  for (const Variant& v : {Variant{"double_verlet", "", ""}, Variant{"float_pefrl", pefrl_float, ""},
+                           Variant{"double_verlet_driven", "", driven},
+                           Variant{"float_pefrl_driven", pefrl_float, driven}}) {
     SCOPED_TRACE(v.name);
-    const std::string scene = write_scene(std::string(v.name) + ".toml", cantilever(8, 0.6, 0.05, v.sim));
+    const std::string scene = write_scene(std::string(v.name) + ".toml", cantilever(8, 0.6, 0.05, v.sim, v.rods));
     const std::string full = path(std::string(v.name) + "_full.h5"),
                       part = path(std::string(v.name) + "_part.h5"),
                       rest = path(std::string(v.name) + "_rest.h5");
@@ -208,6 +214,13 @@ TEST(Cli, ThreadCountDoesNotChangeTheResult) {
   ASSERT_EQ(cli("run " + scene + " -o " + path("t1.h5") + " --threads 1").status, 0);
   ASSERT_EQ(cli("run " + scene + " -o " + path("t2.h5") + " --threads 2").status, 0);
   expect_same_run(path("t1.h5"), path("t2.h5"));
+  // with driven roots: every segment evaluates the motion for its own rods
+  text += "root = { motion = \"keyframes\", times = [0.0, 0.05], translations = [[0.0, 0.0, 0.0], [0.0, 0.0, "
+          "0.002]], rotations = [[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, 20.0]] }\n";
+  const std::string moved = write_scene("threads_driven.toml", text);
+  ASSERT_EQ(cli("run " + moved + " -o " + path("d1.h5") + " --threads 1").status, 0);
+  ASSERT_EQ(cli("run " + moved + " -o " + path("d2.h5") + " --threads 2").status, 0);
+  expect_same_run(path("d1.h5"), path("d2.h5"));
 }
 
 TEST(Cli, CtrlCLeavesAValidFileWithACheckpoint) {

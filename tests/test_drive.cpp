@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -348,4 +349,74 @@ TEST(DrivenRoot, PefrlStaysFourthOrder) {
   // the reference's error is 1/4096 of err[0] at order 4; a root moved once per
   // step at its mean velocity makes PEFRL second order (measured 2.07)
   EXPECT_NEAR(order, 4.0, 0.3);
+}
+
+TEST(DrivenRoot, ChunkingThreadsAndSegmentsDoNotChangeTheResult) {
+  // 300 rods (three L2 segments), every other one driven, by two motions:
+  // step_n in blocks of 50 against single steps, and 2 threads against 1,
+  // bit for bit (each segment evaluates the motions for its own rods).
+  auto nod = std::make_shared<OscillatingMotion>();
+  nod->axis = {0, 1, 0};
+  nod->rotation_amplitude = 0.3;
+  nod->frequency = 5;
+  nod->ramp_time = 0.01;
+  auto slide = constant_velocity({0.1, 0, 0});
+  std::vector<RodSpec> rods;
+  for (int i = 0; i < 300; ++i) {
+    RodSpec r = seed_cantilever(20, Damping::shear_bulk(0.02, 0.02));
+    for (Vec3& x : r.nodes) x[1] += 0.02 * i;
+    if (i % 2 == 0) r.root_motion = i % 4 == 0 ? std::shared_ptr<const RootMotion>(nod) : slide;
+    rods.push_back(r);
+  }
+  auto check = [&]<class T>() {
+    auto a = build_batch<T>(rods, {-9.81, 0, 0});
+    ASSERT_GE(a.segments.size(), 3u);
+    ASSERT_EQ(a.motions.size(), 2u);
+    auto b = a, c = a;
+    const T dt = T(0.5 * stable_dt(a).elastic);
+    step_n(a, dt, 50, Exec{1});
+    for (int i = 0; i < 50; ++i) step(b, dt, Exec{1});
+    step_n(c, dt, 50, Exec{2});
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_EQ(std::memcmp(a.state.node_x[d].data(), b.state.node_x[d].data(), a.state.node_x[d].size() * sizeof(T)), 0);
+      EXPECT_EQ(std::memcmp(a.state.node_x[d].data(), c.state.node_x[d].data(), a.state.node_x[d].size() * sizeof(T)), 0);
+    }
+    EXPECT_GT(distance(a.position(0, 20), rods[0].nodes[20]), 1e-4);  // the driven rods moved
+  };
+  check.template operator()<double>();
+  check.template operator()<float>();
+}
+
+TEST(DrivenRoot, MotionsAreValidatedAndRampIn) {
+  auto bad = std::make_shared<OscillatingMotion>();
+  bad->rotation_amplitude = 0.1;
+  bad->axis = {0, 0, 0};
+  bad->frequency = 1;
+  RodSpec r = seed_cantilever(4);
+  r.root_motion = bad;
+  EXPECT_THROW((void)build_batch<double>({r}), InputError);
+  RodSpec free = seed_cantilever(4);
+  free.clamped_root = false;
+  free.root_motion = constant_velocity({1, 0, 0});
+  try {
+    (void)build_batch<double>({free});
+    ADD_FAILURE() << "a free driven root was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("root_motion: a driven root must be clamped"), std::string::npos)
+        << e.what();
+  }
+  auto keys = std::make_shared<KeyframedMotion>();
+  keys->times = {0, 1, 1};
+  keys->translations = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+  r.root_motion = keys;
+  EXPECT_THROW((void)build_batch<double>({r}), InputError);
+  // the ramp: pose and velocity start at zero, full motion after ramp_time
+  OscillatingMotion m;
+  m.translation_amplitude = {0.01, 0, 0};
+  m.frequency = 2;
+  m.phase = std::numbers::pi / 2;  // sin = 1 at t = 0: without the ramp a jump of 0.01 m
+  m.ramp_time = 0.2;
+  EXPECT_EQ(m.at(0).translation[0], 0.0);
+  EXPECT_LT(m.at(1e-4).translation[0], 0.01 * 3 * std::pow(1e-4 / 0.2, 2) * 1.001);  // 3x² growth: no velocity jump
+  EXPECT_NEAR(m.at(0.45).translation[0], 0.01 * std::sin(2 * std::numbers::pi * 2 * 0.45 + m.phase), 1e-15);
 }

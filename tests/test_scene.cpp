@@ -267,6 +267,7 @@ TEST(Scene, DrivenRoots) {
   EXPECT_NEAR(o->phase, std::numbers::pi / 2, 1e-15);
   EXPECT_EQ(o->frequency, 2.0);
   EXPECT_EQ(o->pivot[2], 0.1);
+  EXPECT_EQ(o->ramp_time, 0.0);
   // keyframes: halfway, half the translation and 45° about e3
   const Pose p = s.rods[3].root_motion->at(0.5);
   EXPECT_NEAR(p.translation[1], 0.1, 1e-15);
@@ -399,6 +400,8 @@ TEST(SceneErrors, InconsistentOrMissing) {
                {"bad.toml:9:", "rods.0.root.rotation_axis: missing"});
   expect_error(head + sec + mat + "root = { motion = \"oscillate\", frequency = -2.0 }\n",
                {"bad.toml:9:", "rods.0.root.frequency: must be > 0"});
+  expect_error(head + sec + mat + "root = { motion = \"oscillate\", frequency = 2.0, ramp_time = -1.0 }\n",
+               {"bad.toml:9:", "rods.0.root.ramp_time: must be >= 0"});
   expect_error(head + sec + mat + "root = { motion = \"oscillate\", frequency = 2.0, amplitude = 1.0 }\n",
                {"bad.toml:9:", "rods.0.root.amplitude: unknown key"});
   expect_error(head + sec + mat +

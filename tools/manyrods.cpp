@@ -94,6 +94,13 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
   if (frames.back() != rd.frames() - 1) frames.push_back(rd.frames() - 1);
   const std::string tmp = usd + ".tmp";
   {
+    std::vector<std::vector<double>> pos(frames.size());
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      rd.read_positions(frames[k], pos[k]);
+      for (double x : pos[k])  // USD cannot hold them (and "-nan" does not parse)
+        if (!std::isfinite(x))
+          throw h5::H5Error(in + ": frame " + std::to_string(frames[k]) + " has non-finite positions");
+    }
     std::ofstream out(tmp);
     if (!out) throw h5::H5Error(usd + ": cannot write");
     out.precision(9);
@@ -102,13 +109,6 @@ int export_usd(const std::string& in, const std::string& usd, int every) {
         << "    startTimeCode = " << frames.front() << "\n    endTimeCode = " << frames.back()
         << "\n    timeCodesPerSecond = " << fps << "\n    framesPerSecond = " << fps << "\n)\n\n";
     out << "def Xform \"manyrods\"\n{\n";
-    std::vector<std::vector<double>> pos(frames.size());
-    for (std::size_t k = 0; k < frames.size(); ++k) {
-      rd.read_positions(frames[k], pos[k]);
-      for (double x : pos[k])  // USD cannot hold them (and "-nan" does not parse)
-        if (!std::isfinite(x))
-          throw h5::H5Error(in + ": frame " + std::to_string(frames[k]) + " has non-finite positions");
-    }
     for (int g = 0; g < groups; ++g) {
       std::vector<int> members;
       for (int r = 0; r < rods; ++r)
@@ -379,6 +379,10 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "manyrods run: give a scene file, or --restart FILE (not both)\n");
         return 2;
       }
+      if (!csv.empty() && restart.empty()) {
+        std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep (--restart sweep.h5)\n");
+        return 2;
+      }
       RunOptions opt;
       opt.output = output;
       opt.threads = threads;
@@ -393,6 +397,11 @@ int main(int argc, char** argv) {
         if (c.from_sweep) {  // a sweep continued: the same variations, its records go on
           const Sweep sw = sweep_of_checkpoint(c, restart);
           return run_sweep(sw, opt, csv, &c);
+        }
+        if (!csv.empty()) {
+          std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep; %s is a run\n",
+                       restart.c_str());
+          return 2;
         }
         const Scene s = parse_scene(c.scene_text, restart + ":/scene");
         r = run_scene(s, opt, &c);

@@ -7,7 +7,11 @@
 // image of its given root under P(t): node 0 at R(t) x₀ + c(t), the clamp
 // frame's directors at R(t) d_i (rows: Q(t) = Q₀ R(t)ᵀ), where x₀, Q₀ are the
 // root and clamp frame the rod was built with. Many rods can share one motion
-// (a scalp): the host evaluates it once per step for all of them.
+// (a scalp): each segment of the batch evaluates it at both ends of a step
+// (of each drift for PEFRL) for all of its rods. The motion must turn by
+// less than π within one step: the angular velocity is taken from the
+// relative rotation of the step's two poses, whose angle is only known
+// modulo 2π (a step that coarse cannot follow the motion anyway).
 //
 // How the step uses it (host/step.h apply_root_motion): at the start of each
 // Position Verlet step, t → t + h, node 0 is put at x(t) and given the mean velocity
@@ -42,22 +46,29 @@ struct Pose {
 class RootMotion {
  public:
   virtual ~RootMotion() = default;
-  // The pose at time t (s). Called at the start of every step, possibly from
-  // several threads at once: must be thread-safe and deterministic.
+  // The pose at time t (s). Called for the ends of every step (or PEFRL
+  // drift), possibly from several threads at once: must be thread-safe and
+  // deterministic.
   virtual Pose at(double t) const = 0;
 };
 
-// Oscillation about a pivot: translation a·sin(2πft + φ) and a rotation by
-// θ·sin(2πft + φ) about `axis` through `pivot` (θ in radians; a shaker, a
-// nodding head). The pose at t = 0 is the identity for φ = 0.
+// Oscillation about a pivot: translation a·s(t) and a rotation by θ·s(t)
+// about `axis` through `pivot`, s(t) = e(t)·sin(2πft + φ) (θ in radians; a
+// shaker, a nodding head). The pose at t = 0 is the identity for φ = 0, but
+// the velocity is not zero there: the rods, built at rest, are jerked into
+// motion. ramp_time > 0 fades the motion in with e(t) = smoothstep(t/ramp_time)
+// (3x² − 2x³: the pose and its velocity start at zero); e = 1 after it.
 struct OscillatingMotion : RootMotion {
   Vec3 translation_amplitude{0, 0, 0};  // m
   Vec3 axis{0, 0, 1};                   // any length > 0 when rotation_amplitude ≠ 0
   double rotation_amplitude = 0;        // rad
   double frequency = 0;                 // Hz
   double phase = 0;                     // rad
+  double ramp_time = 0;                 // s, ≥ 0
   Vec3 pivot{0, 0, 0};                  // m
   Pose at(double t) const override;
+  // Throws InputError naming the first bad field.
+  void validate() const;
 };
 
 // Key poses interpolated as USD and Alembic time samples are: translations
