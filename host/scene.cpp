@@ -248,12 +248,10 @@ Root parse_root(const Table& g) {
     auto o = std::make_shared<OscillatingMotion>();
     o->translation_amplitude = m.vec3("translation_amplitude", {0, 0, 0});
     o->rotation_amplitude = m.number("rotation_amplitude", 0) * deg;
-    if (o->rotation_amplitude != 0) {
-      if (!m.has("rotation_axis")) m.missing("rotation_axis", "needed when rotation_amplitude is not 0");
+    if (m.has("rotation_axis"))
       o->axis = m.nonzero_vec3("rotation_axis", {0, 0, 1});
-    } else if (m.has("rotation_axis")) {
-      o->axis = m.nonzero_vec3("rotation_axis", {0, 0, 1});
-    }
+    else if (o->rotation_amplitude != 0)
+      m.missing("rotation_axis", "needed when rotation_amplitude is not 0");
     o->frequency = m.positive("frequency");
     o->phase = m.number("phase", 0) * deg;
     o->ramp_time = m.has("ramp_time") ? m.non_negative("ramp_time") : 0.0;
@@ -301,8 +299,7 @@ Root parse_root(const Table& g) {
       }
     }
     k->pivot = m.vec3("pivot", {0, 0, 0});
-    k->validate();  // all checked above; a library check left over would still name the group
-    r.motion = k;
+    r.motion = k;  // checked above, entry by entry with its line (KeyframedMotion::validate's checks)
   } else {
     const toml::node* mk = t.get("motion");
     if (!mk) g.ctx.fail(*n, g.key("root.motion"), "missing: a driven root needs motion = \"oscillate\" or \"keyframes\"");

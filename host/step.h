@@ -263,8 +263,9 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
     // driven roots: the solve runs on the velocities relative to the rigid
     // motion of the root (kernels/viscous_implicit.h rigid_shift)
     // (v₀, ω_g of the root; Ω = Q_gᵀ ω_g and x₀ do not change in the solve)
+    const bool driven = r.driven_end > r.driven_begin;  // (a scene without them skips both passes)
     thread_local std::vector<std::array<vec3<T>, 2>> root_v;
-    if (r.driven_end > r.driven_begin && root_v.size() < std::size_t(n)) root_v.resize(std::size_t(n));
+    if (driven && root_v.size() < std::size_t(n)) root_v.resize(std::size_t(n));
     auto shift = [&](const RodInfo& rod, const vec3<T>* root, T sign) {
       const int k = rod.offset + 1;
       const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, k - 1), root[1]);
@@ -272,7 +273,7 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
       store3(s.node_v, k, sign > T(0) ? root[0] : vec3<T>{T(0), T(0), T(0)});
       store3(s.elem_w, k - 1, sign > T(0) ? root[1] : vec3<T>{T(0), T(0), T(0)});
     };
-    for (int i = 0; i < n; ++i)
+    for (int i = 0; driven && i < n; ++i)
       if (const RodInfo& rod = b.rods[order[i]]; rod.driven) {
         root_v[i][0] = load3(s.node_v, rod.offset + 1);
         root_v[i][1] = load3(s.elem_w, rod.offset);
@@ -311,7 +312,7 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
     } else {
       for (int it = 0; it < items; ++it) solve(it, thread);
     }
-    for (int i = 0; i < n; ++i)
+    for (int i = 0; driven && i < n; ++i)
       if (const RodInfo& rod = b.rods[order[i]]; rod.driven) shift(rod, root_v[i].data(), T(1));
   }
 }
@@ -447,9 +448,9 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {}) {
   // next stage's (so the kicks see the root where it is at their time and
   // PEFRL keeps its order; tests/test_drive.cpp).
   double t = b.state.time;
+  const bool driven = !b.driven.empty();
   auto root_drift = [&](T h, double c) {
-    const bool any = !b.driven.empty();
-    if (any)
+    if (driven)
       for (const Segment& r : b.segments)
         if (r.driven_end > r.driven_begin) apply_root_motion(b, r, t, c * double(dt));
     drift(b, h, ex);

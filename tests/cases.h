@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include "manyrods/manyrods.h"
 
@@ -46,6 +47,17 @@ inline RodSpec hair(int elements, bool stiff = false, Damping damping = Damping:
 // Euler–Bernoulli clamped–free bending frequencies, ω_k = (β_k L)² √(EI/(ρ A L⁴)).
 inline double euler_bernoulli_omega(double beta_l) {
   return beta_l * beta_l * std::sqrt(kEI / (kRho * kA * kA * kL * kL * kL * kL));
+}
+
+// |a − b| and the largest of it over two equally long lists of points.
+inline double distance(const Vec3& a, const Vec3& b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
+inline double max_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double worst = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double d = distance(a[i], b[i]);
+    if (!(d <= worst)) worst = d;  // NaN propagates
+  }
+  return worst;
 }
 
 // Largest |σ| = |Q e/l̂ − V0| over the elements of rod `rod` (shear and

@@ -16,6 +16,7 @@ namespace {
 
 using cases::hair;
 using cases::kHairL;
+using cases::max_distance;
 
 // Tip positions at `frames` equal intervals of T.
 std::vector<Vec3> tip_trajectory(bool stiff, double dt, double T, int frames) {
@@ -27,15 +28,6 @@ std::vector<Vec3> tip_trajectory(bool stiff, double dt, double T, int frames) {
     tips.push_back(b.position(0, 32));
   }
   return tips;
-}
-
-double max_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  double worst = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const double d = std::hypot(a[i][0] - b[i][0], a[i][1] - b[i][1], a[i][2] - b[i][2]);
-    if (!(d <= worst)) worst = d;
-  }
-  return worst;
 }
 
 }  // namespace
