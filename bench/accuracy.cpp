@@ -1,11 +1,13 @@
-// bench/accuracy.cpp — manyrods-accuracy: speed against error (issue 5).
+// bench/accuracy.cpp — manyrods-accuracy: speed against error (bench/RESULTS.md
+// "Speed against error (`tools/run-accuracy`)").
 //
 // Runs a grid of configurations (integrator, dt, element count, precision,
 // viscous treatment, terms on/off, stiff-rod option) on two cases and
 // measures, for each, the wall time, element-steps per second and the error
 // of the tip trajectory against a converged reference:
 //
-//   cantilever  the seed cantilever (CASES seed §5, τS = τE = 0.02 s)
+//   cantilever  the seed cantilever (seed §5; docs/validation.md "0a Test
+//               rods: the seed cantilever and human hair"), τS = τE = 0.02 s,
 //               released from its static shape under a 0.05 N tip load,
 //               1 s (half a period and more); error = max over 20 frames of
 //               |tip − tip_ref| / L. Reference: Position Verlet, implicit
@@ -13,7 +15,8 @@
 //               by Richardson extrapolation in dx (the scheme is second order
 //               in space, tests/test_statics.cpp), so the error includes the
 //               spatial one of coarse rods.
-//   hair        CASES 5b hair (n = 32) released horizontal under gravity,
+//   hair        the hair of docs/validation.md "5b Stiff human hair at
+//               frame-rate steps" (n = 32) released horizontal under gravity,
 //               1 s of swinging; reference: the plain explicit scheme at
 //               half its stable step (≈ 2e-8 s), n = 32 (the error is the
 //               time error of that discretization; the spatial one is not
@@ -38,10 +41,7 @@
 #include <vector>
 
 #include "scenes.h"
-#include "host/run.h"
-#include "host/stable_dt.h"
-#include "host/statics.h"
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 
@@ -74,7 +74,8 @@ RodSpec cantilever(int n, double tau) {
   return s;
 }
 
-// CASES 5b hair, n = 32, undamped (bench/scenes.h), optionally stiff.
+// The human hair (docs/validation.md "0a Test rods: the seed cantilever and
+// human hair"), n = 32, undamped (bench/scenes.h), optionally stiff.
 RodSpec hair(bool stiff) {
   RodSpec s = bench::hair_strand(0, 0, false);
   s.stiff_implicit = stiff;

@@ -6,11 +6,13 @@
 // Each benchmark's label carries the state hash after a fixed number of
 // steps from the initial state, so a faster variant that changes the answer
 // shows (and the hash must not depend on the thread count), and the memory
-// held per element (model + state + scratch + loads).
+// held per element (model + state + scratch + loads). Counters stage_* give
+// each stage's share of the step's time.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <cstdio>
+#include <string>
 
 #include "scenes.h"
 
@@ -20,7 +22,7 @@ using namespace manyrods::bench;
 namespace {
 
 // Arrays (each one value per slot) read or written by one step, counted from
-// host/step.h: 2 drifts (read x, v, Q, ω; write x, Q: 18 reads + 12 writes
+// host/integrators.h: 2 drifts (read x, v, Q, ω; write x, Q: 18 reads + 12 writes
 // each), resultants (read x (6: k and k+1), v (6), Q (18: k and k−1),
 // ω (6), 28 model arrays; write 12 scratch), kick (read 12 scratch (+6
 // neighbours), 7 model arrays, 6 loads; read/write v, ω (12)). Neighbour
@@ -30,6 +32,19 @@ namespace {
 constexpr double kValuesPerSlot = 180, kValuesImplicit = 130;
 
 constexpr Terms kNoKV{true, true, true, true, false, true, true};
+
+// Where the step's time goes: after the timed loop, 64 more steps with a
+// Profile (include/manyrods/profile.h); each stage's share of the step's
+// thread-seconds becomes a counter stage_<name> (0…1).
+template <Terms kT, Viscous kV, class T>
+void stage_counters(benchmark::State& state, RodBatch<T>& b, T dt, const Exec& ex) {
+  Profile profile;
+  step_n<kT, kV>(b, dt, 64, Exec{ex.threads, &profile});
+  const StageTimes st = profile.total();
+  for (int i = 0; i < kStageCount; ++i)
+    if (st.calls[std::size_t(i)] > 0)
+      state.counters[std::string("stage_") + stage_name(Stage(i))] = st.seconds[std::size_t(i)] / st.total();
+}
 
 // kBlock > 1: step_n with kBlock steps per call (temporal blocking), the way
 // advance() steps; items still count element-steps.
@@ -58,6 +73,7 @@ void run_step(benchmark::State& state, const std::string& scene, bool kv) {
   // simulated seconds per wall-clock second: what a stiff scene gains
   state.counters["sim_s_per_s"] =
       benchmark::Counter(double(state.iterations()) * kBlock * double(dt), benchmark::Counter::kIsRate);
+  stage_counters<kT, kV>(state, b, dt, ex);
 }
 
 #define MANYRODS_SCENE(scene)                                                                          \

@@ -1,5 +1,6 @@
 // bench/big_batch.cpp — does a batch of 1,000,000 hair strands × 32 elements
-// fit and step on this machine? Builds it in float (hair of CASES 5b,
+// fit and step on this machine? Builds it in float (the human hair of
+// docs/validation.md "0a Test rods: the seed cantilever and human hair",
 // gravity), reports bytes per element (batch arrays, the implicit solve's
 // per-thread buffers included) and the process's peak resident memory, and
 // times a few steps at half of stable_dt. Modes:

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 namespace {
 

@@ -1,16 +1,16 @@
-// bench/scenes.h — the benchmark scenes of issue 4, shared by the benchmark
+// bench/scenes.h — the benchmark scenes (bench/RESULTS.md), shared by the benchmark
 // and the accuracy tools.
 //   hairstiff: the same hair as stiff rods (RodSpec::stiff_implicit), stepped
 //          at half its flexural stable_dt (≈ 2.8e-4 s instead of 2e-8 s)
 //   hairturn: hairstiff on a turning head: every root driven by one
 //          OscillatingMotion (±0.7 rad about e3 at 0.8 Hz), the cost of driven roots
-//   hair:  10,000 rods × 32 elements, human hair (CASES 5b geometry), clamped
+//   hair:  10,000 rods × 32 elements, human hair (docs/validation.md hair geometry), clamped
 //          roots on a grid, horizontal, gravity, Kelvin–Voigt
 //   cable: 1,000 rods × 100 elements, seed cantilever material, Kelvin–Voigt
 //   long:  1 rod × 10,000 elements (seed material, 10 m)
 //   mixed: 5,000 rods with 8 … 256 elements
 //   fibers: 1,000 rods × 32 elements, seed material, clamped, gravity — the
-//          PyElastica comparison scene (shared/peers/README.md)
+//          scene of the side-by-side runs with PyElastica (bench/RESULTS.md)
 #pragma once
 
 #include <cstdint>
@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 namespace manyrods::bench {
 
@@ -81,32 +81,7 @@ inline Scene make_scene(const std::string& name, bool kv, int rods_override = -1
   return sc;
 }
 
-// FNV-1a over the real (non-ghost) state entries: positions, velocities,
-// frames, angular velocities. A faster variant that changes the answer
-// changes the hash.
-template <class T>
-std::uint64_t state_hash(const RodBatch<T>& b) {
-  std::uint64_t h = 1469598103934665603ull;
-  auto mix = [&](T v) {
-    unsigned char bytes[sizeof(T)];
-    std::memcpy(bytes, &v, sizeof(T));
-    for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
-  };
-  for (int r = 0; r < b.rod_count(); ++r) {
-    for (int j = 0; j <= b.elements(r); ++j) {
-      const int k = b.node_index(r, j);
-      for (int d = 0; d < 3; ++d) {
-        mix(b.state.node_x[d][k]);
-        mix(b.state.node_v[d][k]);
-      }
-    }
-    for (int e = 0; e < b.elements(r); ++e) {
-      const int k = b.elem_index(r, e);
-      for (int i = 0; i < 9; ++i) mix(b.state.elem_Q[i][k]);
-      for (int d = 0; d < 3; ++d) mix(b.state.elem_w[d][k]);
-    }
-  }
-  return h;
-}
+// (the state hash the benchmarks print is the library's state_hash,
+// include/manyrods/batch.h)
 
 }  // namespace manyrods::bench

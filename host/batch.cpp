@@ -5,8 +5,12 @@
 #include <algorithm>
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 #include <unordered_map>
+
+#include "host/implicit_plan.h"
+#include "kernels/views.h"
 
 namespace manyrods {
 namespace {
@@ -77,8 +81,7 @@ void validate_rod(const RodSpec& s) {
   }
   if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
   if (s.root_motion && !s.clamped_root) fail("root_motion: a driven root must be clamped (set clamped_root)");
-  if (auto* k = dynamic_cast<const KeyframedMotion*>(s.root_motion.get())) k->validate();
-  if (auto* o = dynamic_cast<const OscillatingMotion*>(s.root_motion.get())) o->validate();
+  if (s.root_motion) s.root_motion->validate();
   if (!std::isfinite(s.shear_stretch_scale) || !(s.shear_stretch_scale > 0))
     fail("shear_stretch_scale = " + std::to_string(s.shear_stretch_scale) + ": must be a finite number > 0");
   auto check_vectors = [](const std::vector<Vec3>& v, std::size_t need, const char* name) {
@@ -156,37 +159,60 @@ std::vector<Mat3> RodSpec::parallel_transport_frames(const std::vector<Vec3>& no
   return frames;
 }
 
+namespace {
+
+// The field list (include/manyrods/fields.h) applied to the storage.
+template <class T, class Fill>
+void allocate_field(Array<T>& a, std::size_t slots, Fill fill) {
+  a.resize(slots, T(fill(0)));
+}
+template <class T, std::size_t N, class Fill>
+void allocate_field(std::array<Array<T>, N>& a, std::size_t slots, Fill fill) {
+  for (std::size_t i = 0; i < N; ++i) a[i].resize(slots, T(fill(int(i))));
+}
+template <class T>
+std::size_t field_bytes(const Array<T>& a) {
+  return a.size() ? a.bytes() : 0;
+}
+template <class T, std::size_t N>
+std::size_t field_bytes(const std::array<Array<T>, N>& a) {
+  std::size_t b = 0;
+  for (const auto& x : a) b += field_bytes(x);
+  return b;
+}
+template <class P, class T>
+void view_of(P& dst, const Array<T>& a) {
+  dst = a.size() ? const_cast<T*>(a.data()) : nullptr;
+}
+template <class P, class T, std::size_t N>
+void view_of(P (&dst)[N], const std::array<Array<T>, N>& a) {
+  for (std::size_t i = 0; i < N; ++i) view_of(dst[i], a[i]);
+}
+
+}  // namespace
+
 template <class T>
 void RodBatch<T>::allocate(int slots, std::int64_t elements) {
   slots_ = slots;
   element_count_ = elements;
   const std::size_t S = static_cast<std::size_t>(slots);
-  auto fill3 = [S](std::array<Array<T>, 3>& a, T x, T y, T z) {
-    a[0].resize(S, x);
-    a[1].resize(S, y);
-    a[2].resize(S, z);
-  };
-  model.node_mass.resize(S, T(0));
-  model.node_inv_mass.resize(S, T(0));
-  model.elem_rest_length.resize(S, T(1));
-  fill3(model.elem_stiffness, 0, 0, 0);
-  fill3(model.elem_rest_strain, 0, 0, 1);
-  fill3(model.elem_tau, 0, 0, 0);
-  fill3(model.elem_inertia, 0, 0, 0);
-  fill3(model.elem_inv_inertia, 0, 0, 0);
-  model.vor_rest_length.resize(S, T(1));
-  fill3(model.vor_stiffness, 0, 0, 0);
-  fill3(model.vor_rest_curvature, 0, 0, 0);
-  fill3(model.vor_tau, 0, 0, 0);
-  fill3(state.node_x, 0, 0, 0);
-  fill3(state.node_v, 0, 0, 0);
-  for (int i = 0; i < 9; ++i) state.elem_Q[i].resize(S, (i % 4 == 0) ? T(1) : T(0));
-  fill3(state.elem_w, 0, 0, 0);
-  if constexpr (sizeof(T) == 4) fill3(state.node_xc, 0, 0, 0);
-  for (auto* a : {&scratch.elem_force, &scratch.elem_couple, &scratch.vor_moment, &scratch.vor_kxm,
-                  &loads.node_force, &loads.elem_couple})
-    fill3(*a, 0, 0, 0);
+#define MANYRODS_ALLOCATE(group, name, n, fill, float_only, doc) \
+  if (!(float_only) || sizeof(T) == 4) allocate_field(group.name, S, [](int i) { return (void)i, (fill); });
+#define MANYRODS_ALLOCATE_MODEL(...) MANYRODS_ALLOCATE(model, __VA_ARGS__)
+#define MANYRODS_ALLOCATE_STATE(...) MANYRODS_ALLOCATE(state, __VA_ARGS__)
+#define MANYRODS_ALLOCATE_SCRATCH(...) MANYRODS_ALLOCATE(scratch, __VA_ARGS__)
+#define MANYRODS_ALLOCATE_LOADS(...) MANYRODS_ALLOCATE(loads, __VA_ARGS__)
+  MANYRODS_MODEL_FIELDS(MANYRODS_ALLOCATE_MODEL)
+  MANYRODS_STATE_FIELDS(MANYRODS_ALLOCATE_STATE)
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_ALLOCATE_SCRATCH)
+  MANYRODS_LOADS_FIELDS(MANYRODS_ALLOCATE_LOADS)
+#undef MANYRODS_ALLOCATE_MODEL
+#undef MANYRODS_ALLOCATE_STATE
+#undef MANYRODS_ALLOCATE_SCRATCH
+#undef MANYRODS_ALLOCATE_LOADS
+#undef MANYRODS_ALLOCATE
   scratch.flags.resize(S, 0);
+  scratch.driven_root_velocity.assign(6 * driven.size(), T(0));
 }
 
 template <class T>
@@ -255,86 +281,72 @@ void RodBatch<T>::set_gravity(const Vec3& g) {
 
 template <class T>
 std::size_t RodBatch<T>::bytes() const {
-  std::size_t b = model.node_mass.bytes() + model.node_inv_mass.bytes() +
-                  model.elem_rest_length.bytes() + model.vor_rest_length.bytes();
-  for (auto* a : {&model.elem_stiffness, &model.elem_rest_strain, &model.elem_tau, &model.elem_inertia,
-                  &model.elem_inv_inertia, &model.vor_stiffness, &model.vor_rest_curvature, &model.vor_tau,
-                  &state.node_x, &state.node_v, &state.elem_w, &state.node_xc, &scratch.elem_force, &scratch.elem_couple,
-                  &scratch.vor_moment, &scratch.vor_kxm, &loads.node_force, &loads.elem_couple})
-    for (const auto& x : *a) b += x.bytes();
-  for (const auto& x : state.elem_Q) b += x.bytes();
-  for (const auto& x : scratch.visc_G) b += x.size() ? x.bytes() : 0;
-  for (const auto& x : scratch.visc_g) b += x.size() ? x.bytes() : 0;
+  std::size_t b = 0;
+#define MANYRODS_BYTES(group, name, n, fill, float_only, doc) b += field_bytes(group.name);
+#define MANYRODS_BYTES_MODEL(...) MANYRODS_BYTES(model, __VA_ARGS__)
+#define MANYRODS_BYTES_STATE(...) MANYRODS_BYTES(state, __VA_ARGS__)
+#define MANYRODS_BYTES_SCRATCH(...) MANYRODS_BYTES(scratch, __VA_ARGS__)
+#define MANYRODS_BYTES_LOADS(...) MANYRODS_BYTES(loads, __VA_ARGS__)
+  MANYRODS_MODEL_FIELDS(MANYRODS_BYTES_MODEL)
+  MANYRODS_STATE_FIELDS(MANYRODS_BYTES_STATE)
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_BYTES_SCRATCH)
+  MANYRODS_LOADS_FIELDS(MANYRODS_BYTES_LOADS)
+#undef MANYRODS_BYTES_MODEL
+#undef MANYRODS_BYTES_STATE
+#undef MANYRODS_BYTES_SCRATCH
+#undef MANYRODS_BYTES_LOADS
+#undef MANYRODS_BYTES
+  b += field_bytes(scratch.visc_G) + field_bytes(scratch.visc_g);
   return b;
 }
 
+#define MANYRODS_VIEW_OF(group, name, n, fill, float_only, doc) view_of(v.name, group.name);
 template <class T>
 ModelView<T> RodBatch<T>::model_view() const {
-  const Model<T>& m = model;
-  auto p3 = [](const std::array<Array<T>, 3>& a) {
-    return std::array<const T*, 3>{a[0].data(), a[1].data(), a[2].data()};
-  };
   ModelView<T> v{};
-  v.node_mass = m.node_mass.data();
-  v.node_inv_mass = m.node_inv_mass.data();
-  v.elem_rest_length = m.elem_rest_length.data();
-  v.vor_rest_length = m.vor_rest_length.data();
-  auto set3 = [&](const T* (&dst)[3], const std::array<Array<T>, 3>& src) {
-    const auto p = p3(src);
-    for (int i = 0; i < 3; ++i) dst[i] = p[i];
-  };
-  set3(v.elem_stiffness, m.elem_stiffness);
-  set3(v.elem_rest_strain, m.elem_rest_strain);
-  set3(v.elem_tau, m.elem_tau);
-  set3(v.elem_inertia, m.elem_inertia);
-  set3(v.elem_inv_inertia, m.elem_inv_inertia);
-  set3(v.vor_stiffness, m.vor_stiffness);
-  set3(v.vor_rest_curvature, m.vor_rest_curvature);
-  set3(v.vor_tau, m.vor_tau);
-  v.gravity = m.gravity;
+#define MANYRODS_VIEW_OF_MODEL(...) MANYRODS_VIEW_OF(model, __VA_ARGS__)
+  MANYRODS_MODEL_FIELDS(MANYRODS_VIEW_OF_MODEL)
+#undef MANYRODS_VIEW_OF_MODEL
+  v.gravity = {model.gravity[0], model.gravity[1], model.gravity[2]};
   return v;
 }
-
 template <class T>
 StateView<T> RodBatch<T>::state_view() {
   StateView<T> v{};
-  for (int i = 0; i < 3; ++i) {
-    v.node_x[i] = state.node_x[i].data();
-    v.node_v[i] = state.node_v[i].data();
-    v.elem_w[i] = state.elem_w[i].data();
-    v.node_xc[i] = state.node_xc[i].size() ? state.node_xc[i].data() : nullptr;
-  }
-  for (int i = 0; i < 9; ++i) v.elem_Q[i] = state.elem_Q[i].data();
+#define MANYRODS_VIEW_OF_STATE(...) MANYRODS_VIEW_OF(state, __VA_ARGS__)
+  MANYRODS_STATE_FIELDS(MANYRODS_VIEW_OF_STATE)
   return v;
 }
 template <class T>
 ConstStateView<T> RodBatch<T>::state_view() const {
-  return as_const(const_cast<RodBatch<T>*>(this)->state_view());
+  ConstStateView<T> v{};
+  MANYRODS_STATE_FIELDS(MANYRODS_VIEW_OF_STATE)
+#undef MANYRODS_VIEW_OF_STATE
+  return v;
 }
 template <class T>
 ScratchView<T> RodBatch<T>::scratch_view() {
   ScratchView<T> v{};
-  for (int i = 0; i < 3; ++i) {
-    v.elem_force[i] = scratch.elem_force[i].data();
-    v.elem_couple[i] = scratch.elem_couple[i].data();
-    v.vor_moment[i] = scratch.vor_moment[i].data();
-    v.vor_kxm[i] = scratch.vor_kxm[i].data();
-  }
+#define MANYRODS_VIEW_OF_SCRATCH(...) MANYRODS_VIEW_OF(scratch, __VA_ARGS__)
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_VIEW_OF_SCRATCH)
   return v;
 }
 template <class T>
 ConstScratchView<T> RodBatch<T>::scratch_view() const {
-  return as_const(const_cast<RodBatch<T>*>(this)->scratch_view());
+  ConstScratchView<T> v{};
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_VIEW_OF_SCRATCH)
+#undef MANYRODS_VIEW_OF_SCRATCH
+  return v;
 }
 template <class T>
 LoadsView<T> RodBatch<T>::loads_view() const {
   LoadsView<T> v{};
-  for (int i = 0; i < 3; ++i) {
-    v.node_force[i] = loads.node_force[i].data();
-    v.elem_couple[i] = loads.elem_couple[i].data();
-  }
+#define MANYRODS_VIEW_OF_LOADS(...) MANYRODS_VIEW_OF(loads, __VA_ARGS__)
+  MANYRODS_LOADS_FIELDS(MANYRODS_VIEW_OF_LOADS)
+#undef MANYRODS_VIEW_OF_LOADS
   return v;
 }
+#undef MANYRODS_VIEW_OF
 
 template <class T>
 void RodBatch<T>::reserve_implicit_scratch(int threads, int min_cells) {
@@ -428,6 +440,11 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
   }
   if (b.segments.empty()) slots = kGuard;
   b.allocate(static_cast<int>(slots), elements);
+  // the implicit-solve plan, for the buffer reserve_implicit_scratch gives
+  // (a segment's worth of cells per thread)
+  int buffer_cells = 0;
+  for (const Segment& seg : b.segments) buffer_cells = std::max(buffer_cells, seg.end - seg.begin);
+  build_solve_plans(b.solve_plan, b.segments, b.rods, kImplicitLanes<T>, buffer_cells);
 
   Model<T>& m = b.model;
   State<T>& st = b.state;
@@ -512,9 +529,36 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
   return b;
 }
 
+template <class T>
+std::uint64_t state_hash(const RodBatch<T>& b) {
+  std::uint64_t h = 14695981039346656037ull;  // FNV-1a 64-bit offset basis
+  auto mix = [&](T v) {
+    unsigned char bytes[sizeof(T)];
+    std::memcpy(bytes, &v, sizeof(T));
+    for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;  // FNV prime
+  };
+  for (int r = 0; r < b.rod_count(); ++r) {
+    for (int j = 0; j <= b.elements(r); ++j) {
+      const int k = b.node_index(r, j);
+      for (int d = 0; d < 3; ++d) {
+        mix(b.state.node_x[d][k]);
+        mix(b.state.node_v[d][k]);
+      }
+    }
+    for (int e = 0; e < b.elements(r); ++e) {
+      const int k = b.elem_index(r, e);
+      for (int i = 0; i < 9; ++i) mix(b.state.elem_Q[i][k]);
+      for (int d = 0; d < 3; ++d) mix(b.state.elem_w[d][k]);
+    }
+  }
+  return h;
+}
+
 template class RodBatch<float>;
 template class RodBatch<double>;
 template RodBatch<float> build_batch<float>(const std::vector<RodSpec>&, const Vec3&);
 template RodBatch<double> build_batch<double>(const std::vector<RodSpec>&, const Vec3&);
+template std::uint64_t state_hash<float>(const RodBatch<float>&);
+template std::uint64_t state_hash<double>(const RodBatch<double>&);
 
 }  // namespace manyrods

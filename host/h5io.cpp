@@ -1,5 +1,5 @@
-// host/h5io.cpp — HDF5 output, checkpoints and reading them back (host/h5io.h).
-#include "host/h5io.h"
+// host/h5io.cpp — HDF5 output, checkpoints and reading them back (include/manyrods/h5io.h).
+#include "manyrods/h5io.h"
 
 #include <hdf5.h>
 
@@ -340,11 +340,10 @@ void Writer::write_checkpoint(const Checkpoint& c) {
     check(H5Dwrite(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()), w.tmp,
           std::string("cannot write checkpoint/") + name);
   };
-  put("node_x", c.node_x, 3);
-  put("node_v", c.node_v, 3);
-  put("elem_Q", c.elem_Q, 9);
-  put("elem_w", c.elem_w, 3);
-  if (!c.node_xc.empty()) put("node_xc", c.node_xc, 3);
+#define MANYRODS_PUT(name, n, fill, float_only, doc) \
+  if (!(float_only) || !c.name.empty()) put(#name, c.name, n);
+  MANYRODS_STATE_FIELDS(MANYRODS_PUT)
+#undef MANYRODS_PUT
   if (c.probe_count > 0) {
     const hsize_t p = hsize_t(c.probe_count), n = hsize_t(c.probe_samples);
     if (c.probe_time.size() != p * n || c.probe_tip.size() != p * n * 3 || c.probe_max_strain.size() != p ||
@@ -440,11 +439,11 @@ Checkpoint read_checkpoint(const std::string& path) {
     check(H5Dread(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()), path,
           std::string("cannot read /checkpoint/") + name + " (truncated or damaged file?)");
   };
-  get("node_x", c.node_x, 3);
-  get("node_v", c.node_v, 3);
-  get("elem_Q", c.elem_Q, 9);
-  get("elem_w", c.elem_w, 3);
-  if (H5Lexists(g.get(), "node_xc", H5P_DEFAULT) > 0) get("node_xc", c.node_xc, 3);
+  // float-only arrays are optional (a file from before they existed)
+#define MANYRODS_GET(name, n, fill, float_only, doc) \
+  if (!(float_only) || H5Lexists(g.get(), #name, H5P_DEFAULT) > 0) get(#name, c.name, n);
+  MANYRODS_STATE_FIELDS(MANYRODS_GET)
+#undef MANYRODS_GET
   if (H5Lexists(g.get(), "probes", H5P_DEFAULT) > 0) {
     const Id pg = checked(H5Gopen2(g.get(), "probes", H5P_DEFAULT), H5Gclose, path,
                           "cannot open /checkpoint/probes");

@@ -4,10 +4,12 @@
 // whole blocks and each block is one `omp simd` loop of fixed length. Every
 // index is therefore computed by the same instruction sequence whatever the
 // thread count, and nothing is reduced across threads: results are
-// bit-identical for any number of threads (DESIGN.md §4).
+// bit-identical for any number of threads (docs/architecture.md "Threads and
+// determinism").
 #pragma once
 
 #include "manyrods/array.h"
+#include "manyrods/step.h"  // Exec
 
 namespace manyrods {
 
@@ -19,11 +21,6 @@ namespace manyrods {
 #else
 #define MANYRODS_KERNEL_LAMBDA
 #endif
-
-// Execution settings come from the caller; no global state.
-struct Exec {
-  int threads = 1;  // OpenMP threads for this call
-};
 
 namespace detail {
 template <class F>

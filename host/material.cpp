@@ -95,7 +95,7 @@ SectionProperties section_properties(const Section& sec, double nu) {
     default:
       throw InputError("section.shape: unknown shape");
   }
-  // DESIGN §1: 0 < κα ≤ 1. Cowper's ellipse formula leaves that range (its
+  // 0 < κα ≤ 1 (docs/model.md "Cross sections"). Cowper's ellipse formula leaves that range (its
   // denominator changes sign) for flat ellipses of auxetic materials, e.g.
   // ν = −0.5 with a semi-axis ratio below about 0.3; a negative shear
   // stiffness would follow silently, so such input is rejected.

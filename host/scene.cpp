@@ -1,7 +1,7 @@
-// host/scene.cpp — parsing and validating TOML scenes (host/scene.h,
+// host/scene.cpp — parsing and validating TOML scenes (include/manyrods/scene.h,
 // docs/scenes.md). toml++ keeps the source position of every node, so each
 // error names file, line, column and the key path.
-#include "host/scene.h"
+#include "manyrods/scene.h"
 
 #include "host/rng.h"
 
@@ -611,11 +611,15 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
 }
 
 std::uint64_t bytes_for(std::int64_t slots, std::int64_t elements, Precision p) {
-  // Model 28 arrays, State 18, Scratch 12 (+ int flags), Loads 6, implicit
-  // viscous workspace 42 (include/manyrods/batch.h), per slot; plus the
-  // double-precision RodSpec (nodes, frames) while building.
-  const std::uint64_t t = p == Precision::float32 ? 4 : 8;
-  return std::uint64_t(slots) * (106 * t + 4) + std::uint64_t(elements) * 128;
+  // The arrays of the field list (include/manyrods/fields.h), the implicit
+  // viscous workspace (36 + 6 arrays per slot at most: one segment per
+  // thread) and the int flags, per slot; plus the double-precision RodSpec
+  // (nodes, frames) while building.
+  const bool is_float = p == Precision::float32;
+  const std::uint64_t t = is_float ? 4 : 8;
+  const std::uint64_t arrays = std::uint64_t(fields::model_arrays() + fields::state_arrays(is_float) +
+                                             fields::scratch_arrays() + fields::loads_arrays() + 36 + 6);
+  return std::uint64_t(slots) * (arrays * t + 4) + std::uint64_t(elements) * 128;
 }
 
 }  // namespace

@@ -1,11 +1,14 @@
-// host/scene_run.cpp — building and stepping a scene's batch (host/scene_run.h).
-#include "host/scene_run.h"
+// host/scene_run.cpp — building and stepping a scene's batch (include/manyrods/scene.h "the batch of a scene").
+#include "manyrods/scene.h"
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
 
+#include "kernels/strains.h"
+#include "kernels/views.h"
+#include "manyrods/stable_dt.h"
 #include "manyrods/statics.h"
 
 namespace manyrods::scene {

@@ -12,7 +12,7 @@
 // the bound is tight (the zig-zag mode), so it is not far below either.
 //
 // With the explicit viscous treatment the Kelvin–Voigt term adds the limit
-// h ≲ 2/(τ ω_max²) (DESIGN.md §3), reported separately; the implicit
+// h ≲ 2/(τ ω_max²) (docs/model.md "Time stepping"), reported separately; the implicit
 // treatment has no τ limit.
 //
 // Stiff rods (RodSpec::stiff_implicit) integrate shear, stretch and twist
@@ -36,14 +36,9 @@
 #include <vector>
 
 #include "manyrods/batch.h"
+#include "manyrods/stable_dt.h"
 
 namespace manyrods {
-
-struct StableDt {
-  double elastic = 0;           // 2/ω_max bound: Position Verlet, undamped or implicit KV
-  double explicit_viscous = 0;  // additional limit of Viscous::explicit_rate (inf without KV)
-  double omega_max = 0;         // the Gershgorin bound on ω_max, rad/s
-};
 
 namespace detail {
 
@@ -89,7 +84,7 @@ std::pair<double, double> stiff_rod_bound(const RodBatch<T>& b, int r) {
 
 }  // namespace detail
 
-template <Terms kT = kAllTerms, class T>
+template <Terms kT, class T>
 StableDt stable_dt(const RodBatch<T>& b) {
   StableDt out;
   double wmax2 = 0, tau_w2 = 0;

@@ -2,8 +2,8 @@
 //
 // Unknowns: the position of every free node and a rotation increment φ of
 // every element frame (Q ← exp(−[φ]×) Q, material components). Residual: the
-// generalized forces of host/step.h at zero velocity (node forces, element
-// couples). Rods are independent, so each rod is solved on its own with a
+// generalized forces (host/diagnostics.h) at zero velocity (node forces, element
+// couples; host/diagnostics.h). Rods are independent, so each rod is solved on its own with a
 // dense Jacobian from central differences (6n × 6n; n ≲ 1,000). Loads
 // (gravity, point forces and couples) are ramped in `load_steps` equal steps
 // so that large deflections are reached along the equilibrium path.
@@ -16,22 +16,10 @@
 #include <cmath>
 #include <vector>
 
-#include "host/step.h"
+#include "host/diagnostics.h"
+#include "manyrods/statics.h"
 
 namespace manyrods {
-
-struct StaticOptions {
-  int load_steps = 10;
-  int max_newton_iterations = 50;
-  double tolerance = 1e-10;  // on |Δx|/L and |Δφ| (rad), the Newton update
-  double max_update = 0.05;  // cap on one update (same measure)
-};
-
-struct StaticResult {
-  bool converged = true;
-  int iterations = 0;       // total Newton iterations
-  double last_update = 0;   // size of the last Newton update
-};
 
 namespace detail {
 
@@ -95,10 +83,9 @@ Eigen::MatrixXd residual_jacobian(RodBatch<double>& b, const RodDofs& d, std::ar
 
 }  // namespace detail
 
-// Solves for static equilibrium under the batch's current loads and gravity,
-// starting from the current state. Velocities are set to zero.
-template <Terms kT = kAllTerms>
-StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt = {}) {
+// solve_static (include/manyrods/statics.h).
+template <Terms kT>
+StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   constexpr Terms kStatic = [] {
     Terms t = kT;
     t.kelvin_voigt = false;  // no motion, no viscous force
@@ -109,7 +96,7 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt = {}) {
       for (std::size_t k = 0; k < x.size(); ++k) x[k] = 0;
   // remember full loads, then ramp
   const Loads<double> full_loads = b.loads;
-  const vec3<double> full_g = b.model.gravity;
+  const std::array<double, 3> full_g = b.model.gravity;
   std::array<Array<double>, 3> f, c;
   for (int a = 0; a < 3; ++a) {
     f[a].resize(b.slots(), 0.0);
@@ -133,7 +120,7 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt = {}) {
           b.loads.node_force[a][k] = lambda * full_loads.node_force[a][k];
           b.loads.elem_couple[a][k] = lambda * full_loads.elem_couple[a][k];
         }
-      b.model.gravity = lambda * full_g;
+      b.model.gravity = {lambda * full_g[0], lambda * full_g[1], lambda * full_g[2]};
       bool ok = false;
       for (int it = 0; it < opt.max_newton_iterations; ++it) {
         const Eigen::VectorXd r0 = detail::static_residual<kStatic>(b, d, f, c);

@@ -1,5 +1,5 @@
-// host/sweep.cpp — parameter sweeps (host/sweep.h).
-#include "host/sweep.h"
+// host/sweep.cpp — parameter sweeps (include/manyrods/sweep.h).
+#include "manyrods/sweep.h"
 
 #include "host/rng.h"
 

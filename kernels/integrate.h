@@ -1,5 +1,5 @@
 // kernels/integrate.h — the two half-flows of the explicit symplectic
-// splitting (Position Verlet, DESIGN.md §3):
+// splitting (Position Verlet, docs/model.md "Position Verlet"):
 //   kinematic (drift), length h:  x ← x + h v,   Q ← exp(−[h ω]×) Q
 //   dynamic (kick), length h:     v ← v + h m⁻¹ (F + m g + f_ext)
 //                                 ω ← ω + h J⁻¹ (C + Q c_ext + (Jω̄) × ω̄)  (midpoint ω̄)
@@ -7,7 +7,7 @@
 // round-off. Clamped and ghost entries have m⁻¹ = J⁻¹ = 0, so the kicks never
 // move them (the clamp frame lives in a ghost element with ω = 0: exp(0) = I
 // exactly); a driven root's node 0 and clamp frame carry the velocities the
-// host gives them (host/step.h apply_root_motion) and drift with them.
+// host gives them (host/root_motion.h apply_root_motion) and drift with them.
 //
 // reads/writes: node_x, node_v (node k), elem_Q, elem_w (element k)
 // reads: node_mass, node_inv_mass, elem_inv_inertia, loads, scratch
@@ -20,11 +20,11 @@ namespace manyrods {
 // In float, x += h v loses the part of h v below half an ulp of x: a hair
 // tip at 0.2 m moving at 1 m/s with h = 2e-8 s advances by 2e-8 m, about one
 // ulp (1.5e-8 m), so plain float positions drift or stall, an error that
-// grows with the number of steps (measured: 14 % of the length after 8.6e6
-// steps of the released seed cantilever, bench/RESULTS.md). Float batches
-// therefore keep the lost low part in node_xc and add it back on the next
-// drift (Kahan's compensated summation): the positions then carry about
-// twice float's precision in the sums, at one more array per coordinate.
+// grows with the number of steps (bench/RESULTS.md "Design history (moved
+// from the kernel headers)"). Float batches therefore keep the lost low part
+// in node_xc and add it back on the next drift (Kahan's compensated
+// summation): the positions then carry about twice float's precision in the
+// sums, at one more array per coordinate.
 template <class T>
 MANYRODS_HD inline void kinematic_node(int k, T h, const StateView<T>& s) {
   if constexpr (sizeof(T) == 4) {
@@ -43,14 +43,13 @@ MANYRODS_HD inline void kinematic_node(int k, T h, const StateView<T>& s) {
 }
 
 // Float frames drift away from orthonormal: each drift's product R Q rounds
-// at ~6e-8, systematically, and nothing pulls Q back, so after 6,600 steps
-// of the released seed cantilever |QQᵀ − I| = 3.8e-4; with the stiff shear
-// and stretch reading σ = Q e/l̂ − e3 this is a spurious strain, and it was
-// the largest part of the float error (1.6e-3 L at n = 40 against 8.8e-4 in
-// double, bench/RESULTS.md). One Newton–Schulz step, Q ← Q + ½(I − QQᵀ)Q,
+// at ~6e-8, systematically, and nothing pulls Q back; with the stiff shear
+// and stretch reading σ = Q e/l̂ − e3 the defect is a spurious strain (how
+// large it grew: bench/RESULTS.md "Design history (moved from the kernel
+// headers)"). One Newton–Schulz step, Q ← Q + ½(I − QQᵀ)Q,
 // halves the digits of the defect (quadratic convergence to the orthonormal
 // polar factor); the host applies it to float batches every
-// kFloatFrameRenormalization steps (host/step.h), so the defect stays at
+// kFloatFrameRenormalization steps (host/stages.h), so the defect stays at
 // ~1e-6, for ~6 extra FLOP per element-step. Fixed frames (clamp, ghosts:
 // zero inverse inertia) are left as they are.
 inline constexpr int kFloatFrameRenormalization = 16;
@@ -154,7 +153,7 @@ MANYRODS_HD inline vec3<T> euler_midpoint(vec3<T> w0, vec3<T> c, vec3<T> inertia
 // make it 1e3–1e5 × the final one (h|ω| ≫ 1), which the solve then removes.
 // The midpoint iteration above diverges there (it contracts only for
 // h|ω| < 1) and its nonlinear (Jω)×ω of that ω is not removed by a linear
-// solve: measured, a swinging hair blows up after ~2 s. So stiff rods take
+// solve (a swinging hair blew up with it). So stiff rods take
 // the rigid-body term explicitly at the start-of-kick ω (the physical one,
 // out of the last solve): first order, like the rest of the stiff scheme,
 // and negligible for thin rods, whose (Jω)×ω is tiny.

@@ -1,8 +1,9 @@
 // kernels/internal_forces.h — internal nodal forces and element couples of the
 // standard discrete Cosserat rod (Gazzola et al. 2018, R. Soc. open sci.
 // 5:171628, eq. 2.12–2.13), with the seed's linear constitutive law
-// (no rescaling of A and I with stretch; DESIGN.md §2). n and m are the TOTAL
-// resultants (elastic + viscous), seed eq. (12)–(13).
+// (no rescaling of A and I with stretch; docs/model.md "Differences from the
+// standard scheme"). n and m are the TOTAL resultants (elastic + viscous),
+// seed eq. (12)–(13).
 //
 //   node k:     F_k = Δʰ(Qᵀn)   = (Qᵀn)_k − (Qᵀn)_{k−1}
 //   element k:  C_k = Δʰ(m) + Aʰ(D̂ κ × m) + (Q e × n)

@@ -265,10 +265,10 @@ MANYRODS_HD inline vec3<T> rotation_log(const mat3<T>& r, T& theta, T& s, T& c) 
 // γ = Σ_{k≥1} |B_2k| θ^(2k−2)/(2k)! = 1/12 + θ²/720 + θ⁴/30240 + θ⁶/1209600
 //     + θ⁸/47900160 + 691θ¹⁰/1307674368000 + θ¹²/74724249600 + O(θ¹⁴)
 // (series of (1 − (θ/2)cot(θ/2))/θ²) is used for θ ≤ ½, where the first
-// omitted term is < 3e-17 relative. (Cut after θ⁶ it was off by 8e-11 in γ,
-// 2e-11·|v| in the result, at θ → 0.5: far above double round-off.) Above,
-// the form 1/θ² − sin θ/(2θ(1 − cos θ)) stays finite up to θ = π; with c
-// from the trace its cancellation costs about 2u/θ²·|v| ≤ 8u·|v|.
+// omitted term is < 3e-17 relative: it must run to θ¹² to reach double
+// round-off at θ = ½. Above, the form 1/θ² − sin θ/(2θ(1 − cos θ)) stays
+// finite up to θ = π; with c from the trace its cancellation costs about
+// 2u/θ²·|v| ≤ 8u·|v|.
 template <class T>
 MANYRODS_HD inline T inverse_right_jacobian_gamma_small(T t2) {
   return T(1) / T(12) +

@@ -10,7 +10,7 @@
 // writes: return values only
 #pragma once
 
-#include "kernels/terms.h"
+#include "manyrods/terms.h"
 #include "kernels/views.h"
 
 namespace manyrods {

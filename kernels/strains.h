@@ -13,7 +13,8 @@
 // Its exact rate: RᵀṘ = [ω_a − Rᵀω_b]× = [J_r(ψ) ψ̇]×, hence
 //   κ̇ = J_r(ψ)⁻¹ (Rᵀ ω_b − ω_a) / D̂.
 // Rᵀω_b is ω_b in frame-a components; the plain difference (ω_b − ω_a)/D̂ is
-// not objective on a curved rod (CASES 3a) and is not used.
+// not objective on a curved rod (docs/validation.md "3a Objectivity under
+// rigid motion") and is not used.
 //
 // reads: node_x, node_v, elem_Q, elem_w, elem_rest_length, elem_rest_strain,
 //        vor_rest_length   writes: return values only

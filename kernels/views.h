@@ -1,6 +1,7 @@
 // kernels/views.h — what crosses the kernel boundary: plain pointers into the
 // structure-of-arrays storage of a RodBatch (include/manyrods/batch.h), no
-// containers. Every array is indexed by the same slot index k (see batch.h):
+// containers. The members are generated from the field list
+// (include/manyrods/fields.h), so storage and views cannot disagree. Every array is indexed by the same slot index k (see batch.h):
 // node k sits between element k−1 and element k, and Voronoi point k is the
 // joint between element k−1 and element k (it sits on node k). Index k−1 and
 // k+1 are valid for every k in [0, slots): the storage has guard entries.
@@ -8,87 +9,92 @@
 // reads: nothing  writes: nothing
 #pragma once
 
+#include <type_traits>
+
 #include "kernels/math.h"
+#include "manyrods/fields.h"
 
 namespace manyrods {
 
-// Constant during a run. Units SI.
+// One field of include/manyrods/fields.h as a view member: a pointer, or one
+// pointer per component.
+template <class P, int N>
+using FieldView = std::conditional_t<N == 1, P, P[N]>;
+
+#define MANYRODS_VIEW_MEMBER(name, n, fill, float_only, doc) FieldView<T*, n> name;
+#define MANYRODS_CONST_VIEW_MEMBER(name, n, fill, float_only, doc) FieldView<const T*, n> name;
+
+// Constant during a run (MANYRODS_MODEL_FIELDS: shapes and units).
 template <class T>
 struct ModelView {
-  const T* node_mass;            // [slots] kg, lumped
-  const T* node_inv_mass;        // [slots] 1/kg, 0 for clamped and ghost nodes
-  const T* elem_rest_length;     // [slots] m, l̂
-  const T* elem_stiffness[3];    // [3][slots] N: κ1·G·A, κ2·G·A, E·A (C_F)
-  const T* elem_rest_strain[3];  // [3][slots] 1: V0 (e3 for a straight rod)
-  const T* elem_tau[3];          // [3][slots] s: τS, τS, τE (V_F = C_F·diag τ)
-  const T* elem_inertia[3];      // [3][slots] kg·m: ρ·l̂·(I1, I2, I3)
-  const T* elem_inv_inertia[3];  // [3][slots] 0 for ghost elements
-  const T* vor_rest_length;      // [slots] m, D̂
-  const T* vor_stiffness[3];     // [3][slots] N·m²: E·I1, E·I2, G·J_T (C_M)
-  const T* vor_rest_curvature[3];  // [3][slots] 1/m: U0
-  const T* vor_tau[3];           // [3][slots] s: τE, τE, τS (V_M = C_M·diag τ)
-  vec3<T> gravity;               // m/s²
+  MANYRODS_MODEL_FIELDS(MANYRODS_CONST_VIEW_MEMBER)
+  vec3<T> gravity;  // m/s²
 };
 
-// The state: positions, velocities, frames, angular velocities.
+// The state: positions, velocities, frames, angular velocities
+// (MANYRODS_STATE_FIELDS; node_xc is nullptr for double batches).
 template <class T>
 struct StateView {
-  T* node_x[3];   // [3][slots] m
-  T* node_v[3];   // [3][slots] m/s
-  T* elem_Q[9];   // [9][slots] frame, row-major, rows = directors d1, d2, d3
-  T* elem_w[3];   // [3][slots] rad/s, material components
-  // float only (nullptr for double): the round-off of node_x carried between
-  // drifts (compensated summation, kernels/integrate.h kinematic_node)
-  T* node_xc[3];
+  MANYRODS_STATE_FIELDS(MANYRODS_VIEW_MEMBER)
 };
-
 template <class T>
 struct ConstStateView {
-  const T* node_x[3];
-  const T* node_v[3];
-  const T* elem_Q[9];
-  const T* elem_w[3];
+  MANYRODS_STATE_FIELDS(MANYRODS_CONST_VIEW_MEMBER)
 };
 
-// Derived each step from the state; each array names the kernel that writes it.
+// Derived each step from the state; each array names the kernel that writes
+// it (MANYRODS_SCRATCH_FIELDS).
 template <class T>
 struct ScratchView {
-  T* elem_force[3];   // [3][slots] N, Qᵀn (lab)          — element_stage
-  T* elem_couple[3];  // [3][slots] N·m, (Q e) × n         — element_stage
-  T* vor_moment[3];   // [3][slots] N·m, m̃ = J-corrected m — voronoi_stage
-  T* vor_kxm[3];      // [3][slots] N·m, D̂ κ × m           — voronoi_stage
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_VIEW_MEMBER)
 };
-
 template <class T>
 struct ConstScratchView {
-  const T* elem_force[3];
-  const T* elem_couple[3];
-  const T* vor_moment[3];
-  const T* vor_kxm[3];
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_CONST_VIEW_MEMBER)
 };
 
-// External loads the user sets between steps (lab frame).
+// External loads the user sets between steps (lab frame, MANYRODS_LOADS_FIELDS).
 template <class T>
 struct LoadsView {
-  const T* node_force[3];   // [3][slots] N
-  const T* elem_couple[3];  // [3][slots] N·m
+  MANYRODS_LOADS_FIELDS(MANYRODS_CONST_VIEW_MEMBER)
 };
 
+#undef MANYRODS_VIEW_MEMBER
+#undef MANYRODS_CONST_VIEW_MEMBER
+
+// The elimination buffer of one implicit solve (kernels/viscous_implicit.h),
+// indexed by cell.
+template <class T>
+struct ImplicitScratchView {
+  T* G[36];  // [36][cells] Â_c⁻¹ U_c, row-major 6×6
+  T* g[6];   // [6][cells]  Â_c⁻¹ ŷ_c
+};
+
+namespace views_detail {
+template <class T>
+MANYRODS_HD inline void copy_view(const T*& dst, T* src) {
+  dst = src;
+}
+template <class T, int N>
+MANYRODS_HD inline void copy_view(const T* (&dst)[N], T* const (&src)[N]) {
+  for (int i = 0; i < N; ++i) dst[i] = src[i];
+}
+}  // namespace views_detail
+
+#define MANYRODS_AS_CONST(name, n, fill, float_only, doc) views_detail::copy_view(c.name, s.name);
 template <class T>
 MANYRODS_HD inline ConstStateView<T> as_const(const StateView<T>& s) {
-  return {{s.node_x[0], s.node_x[1], s.node_x[2]},
-          {s.node_v[0], s.node_v[1], s.node_v[2]},
-          {s.elem_Q[0], s.elem_Q[1], s.elem_Q[2], s.elem_Q[3], s.elem_Q[4], s.elem_Q[5],
-           s.elem_Q[6], s.elem_Q[7], s.elem_Q[8]},
-          {s.elem_w[0], s.elem_w[1], s.elem_w[2]}};
+  ConstStateView<T> c{};
+  MANYRODS_STATE_FIELDS(MANYRODS_AS_CONST)
+  return c;
 }
 template <class T>
 MANYRODS_HD inline ConstScratchView<T> as_const(const ScratchView<T>& s) {
-  return {{s.elem_force[0], s.elem_force[1], s.elem_force[2]},
-          {s.elem_couple[0], s.elem_couple[1], s.elem_couple[2]},
-          {s.vor_moment[0], s.vor_moment[1], s.vor_moment[2]},
-          {s.vor_kxm[0], s.vor_kxm[1], s.vor_kxm[2]}};
+  ConstScratchView<T> c{};
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_AS_CONST)
+  return c;
 }
+#undef MANYRODS_AS_CONST
 
 template <class T>
 MANYRODS_HD inline vec3<T> load3(const T* const a[3], int k) {

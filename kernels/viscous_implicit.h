@@ -1,5 +1,6 @@
 // kernels/viscous_implicit.h — the Kelvin–Voigt force integrated implicitly,
-// so that the stable step does not depend on τ (DESIGN.md §3).
+// so that the stable step does not depend on τ (docs/model.md "Kelvin–Voigt
+// in time: explicit rates or implicit backward Euler").
 //
 // The viscous force is linear in the velocities u = (v, ω) at fixed geometry:
 // with the strain-rate maps σ̇_k = B_k u (element k) and κ̇_k = C_k u
@@ -54,12 +55,6 @@
 #include "kernels/strains.h"
 
 namespace manyrods {
-
-template <class T>
-struct ImplicitScratchView {
-  T* G[36];  // [36][cells] Â_c⁻¹ U_c, row-major 6×6
-  T* g[6];   // [6][cells]  Â_c⁻¹ ŷ_c
-};
 
 namespace viscous_detail {
 
@@ -168,7 +163,7 @@ MANYRODS_HD inline void voronoi_maps(int k, T stiff_h, const ModelView<T>& m, co
 // = 0 with R = Q_k Q_{k−1}ᵀ). With u = ū + w the system becomes
 // (M + hD) w⁺ = M w⁻ with w = 0 at the root: the solve of a clamped rod, on
 // w. The host subtracts ū (sign −1), solves, and adds it back (sign +1),
-// putting the root's own values back (host/step.h viscous_update). Solving
+// putting the root's own values back (host/implicit_solve.h viscous_update). Solving
 // for w rather than moving D_fp u_p to the right-hand side also keeps the
 // stiff rods' direct form from cancelling h²K v₀ against itself: a rod
 // carried at v has w⁻ equal to the still rod's u⁻ up to round-off
@@ -240,16 +235,16 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
                     s.elem_w[0][k], s.elem_w[1][k], s.elem_w[2][k]};
     // Delta form: (M + hD) Δu = −hD u⁻, u⁺ = u⁻ + Δu (the same solution as
     // (M + hD) u⁺ = M u⁻). The round-off of the elimination is then relative
-    // to the viscous change Δu, not to u: the system's condition number
-    // (1 + hτω_max², ~400 for the seed cantilever at τ = 0.02 s) times float's
-    // 6e-8 of u per step made the float trajectory of the released cantilever
-    // 1.6e-3 L off the double one after 1 s; in delta form the slow modes,
-    // whose Δu is tiny, keep float's precision. hD u⁻ uses the assembled
-    // blocks: A_c u_c + U_{c−1}ᵀ u_{c−1} + U_c u_{c+1}.
+    // to the viscous change Δu, not to u: in the direct form the system's
+    // condition number (1 + hτω_max², ~400 for the seed cantilever at
+    // τ = 0.02 s) times float's 6e-8 of u per step accumulates on every mode;
+    // in delta form the slow modes, whose Δu is tiny, keep float's precision
+    // (the measured effect: bench/RESULTS.md "Float against double"). hD u⁻
+    // uses the assembled blocks: A_c u_c + U_{c−1}ᵀ u_{c−1} + U_c u_{c+1}.
     // Not for stiff rods (stiff_h > 0): there u⁻ holds the huge pre-solve
     // velocities of the stiff modes (h|ω⁻| ≫ 1) and Δu ≈ −u⁻ cancels them, so
     // u⁻ + Δu would lose every digit of u⁺; the direct form M u⁻ computes u⁺
-    // itself (measured: the float stiff hair went non-finite in delta form).
+    // itself.
     T y[6];
     if (delta) {
       const int kp = c > 0 ? k - 1 : k, kn = k + 1;  // c = 0: U_{−1} = 0

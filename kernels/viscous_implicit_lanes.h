@@ -12,9 +12,8 @@
 // viscous_implicit_lanes below). Every value is an array over the lanes
 // ([…][W]) and every stage is one `omp simd` loop over the lanes whose body
 // is the scalar per-rod arithmetic (fully unrolled: lane-wide vectors in
-// registers, no loop over matrix indices at run time). Checked with
-// g++ 12 -O3 -march=native -fno-math-errno -fopt-info-vec: every lane loop
-// vectorizes (64-byte vectors), except the scalar fallback loops.
+// registers, no loop over matrix indices at run time), so that every lane
+// loop but the scalar fallback ones vectorizes.
 //
 // Where it does less arithmetic than the scalar kernel (exact in exact
 // arithmetic; the results agree to round-off, tests/test_implicit_lanes.cpp):

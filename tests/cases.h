@@ -1,15 +1,16 @@
-// tests/cases.h — the rods of ../shared/CASES.md, built once for all tests.
+// tests/cases.h — the test rods of docs/validation.md "0a Test rods: the seed
+// cantilever and human hair", built once for all tests.
 #pragma once
 
 #include <cmath>
 #include <numbers>
 #include <vector>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 namespace manyrods::cases {
 
-// Seed cantilever (CASES.md, seed §5): L = 0.3 m, 1 cm × 1 cm square,
+// Seed cantilever (seed §5): L = 0.3 m, 1 cm × 1 cm square,
 // ρ = 1000 kg/m³, E = 1 MPa, ν = 0.3, clamped at s = 0, along +e3 with
 // d1 = e1, straight and untwisted at rest.
 inline constexpr double kL = 0.3, kA = 0.01, kRho = 1000, kE = 1e6, kNu = 0.3;
@@ -29,9 +30,10 @@ inline RodSpec seed_cantilever(int elements, Damping damping = Damping::none()) 
   return s;
 }
 
-// CASES 5b human hair: L = 0.2 m, r = 40 µm, E = 3.9 GPa, ρ = 1300, ν = 0.3,
-// clamped horizontally (d3 = e1, d1 = e3), so that gravity along −e3 bends
-// and swings it; `stiff`: RodSpec::stiff_implicit.
+// Human hair (docs/validation.md "5b Stiff human hair at frame-rate steps"):
+// L = 0.2 m, r = 40 µm, E = 3.9 GPa, ρ = 1300, ν = 0.3, clamped horizontally
+// (d3 = e1, d1 = e3), so that gravity along −e3 bends and swings it;
+// `stiff`: RodSpec::stiff_implicit.
 inline constexpr double kHairL = 0.2;
 inline RodSpec hair(int elements, bool stiff = false, Damping damping = Damping::none()) {
   RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, kHairL, elements);

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <string>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 #include "reference.h"
 
 namespace manyrods::testing {

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 namespace manyrods::testing {
 

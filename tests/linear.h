@@ -9,7 +9,7 @@
 #include <Eigen/Dense>
 #include <vector>
 
-#include "manyrods/statics.h"
+#include "manyrods/advanced.h"
 
 namespace manyrods::testing {
 

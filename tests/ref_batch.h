@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 #include "reference.h"
 
 namespace manyrods::testing {
@@ -138,7 +138,7 @@ ref::Rod extract_rod(const RodBatch<T>& b, int r) {
     rod.U0_root = get3(m.vor_rest_curvature, kr);
     rod.tauM_root = get3(m.vor_tau, kr);
   }
-  rod.g = V3(double(m.gravity.x), double(m.gravity.y), double(m.gravity.z));
+  rod.g = V3(double(m.gravity[0]), double(m.gravity[1]), double(m.gravity[2]));
   return rod;
 }
 

@@ -54,7 +54,7 @@
 #include <Eigen/Dense>
 #include <vector>
 
-#include "kernels/terms.h"
+#include "manyrods/terms.h"
 
 namespace manyrods::ref {
 

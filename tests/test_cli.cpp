@@ -23,7 +23,7 @@
 #include <thread>
 #include <vector>
 
-#include "host/h5io.h"
+#include "manyrods/h5io.h"
 
 using namespace manyrods;
 namespace fs = std::filesystem;
@@ -304,8 +304,9 @@ TEST(Cli, SweepPutsEveryVariationInOneBatchAndSummarisesIt) {
   const auto& defl = column("tip_deflection_initial_m");
   const auto& diss = column("dissipated_J");
   for (int i = 0; i < 4; ++i) {
-    // CASES 3d: ζ₁ = τE·ω₁/2 for small amplitudes, with ω₁ of the discrete
-    // rod from the measured damped period, ω₁ = 2π/(T√(1−ζ²)). Amplitude
+    // docs/validation.md "3d Modal damping ratio": ζ₁ = τE·ω₁/2 for small
+    // amplitudes, with ω₁ of the discrete rod from the measured damped
+    // period, ω₁ = 2π/(T√(1−ζ²)). Amplitude
     // 18 % of L (geometric nonlinearity ~1 %), log decrement over 2 cycles
     // from parabola-refined peaks at 64-step samples: asserted to 2 %.
     const double w1 = 2 * std::numbers::pi / (period[i] * std::sqrt(1 - zeta[i] * zeta[i]));

@@ -1,7 +1,9 @@
-// CASES.md §3c, 3d, 5c — Kelvin–Voigt damping: the dissipation identity,
-// modal damping ratios by logarithmic decrement, and a stable step that does
-// not depend on τ. Both viscous treatments are checked: Viscous::implicit
-// (default) and Viscous::explicit_rate (the reference).
+// docs/validation.md "3c Dissipation identity", "3d Modal damping ratio" and
+// "5c Implicit Kelvin–Voigt step independent of τ" — Kelvin–Voigt damping:
+// the dissipation identity, modal damping ratios by logarithmic decrement,
+// and a stable step that does not depend on τ. Both viscous treatments are
+// checked: Viscous::implicit (default) and Viscous::explicit_rate (the
+// reference).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -135,9 +137,10 @@ std::vector<double> log_decrement_zeta(int n, const std::vector<double>& taus, d
 }  // namespace
 
 TEST(Damping, ModalDampingRatioImplicit) {
-  // CASES 3d. With τS = τE = τB = τ (seed §5) the viscous matrix is exactly
-  // τ·K at the straight state, so each linear mode decays with
-  // ζ_k = τ ω_k / 2, ω_k the discrete model's undamped frequency.
+  // docs/validation.md "3d Modal damping ratio". With τS = τE = τB = τ
+  // (seed §5) the viscous matrix is exactly τ·K at the straight state, so
+  // each linear mode decays with ζ_k = τ ω_k / 2, ω_k the discrete model's
+  // undamped frequency.
   // Error budget of the measurement (relative):
   //   backward-Euler viscous step: amplitude factor (1 + hτω²)^(−½) per step
   //     instead of e^{−hτω²/2}: ζ low by hτω₁²/2 ≤ 2e-5·0.08·12.8/2 = 1e-5;
@@ -153,10 +156,10 @@ TEST(Damping, ModalDampingRatioImplicit) {
   const double w_eb = euler_bernoulli_omega(1.87510407);
   for (int i = 0; i < 3; ++i) {
     const double expected = taus[i] * w1 / 2;
-    std::printf("tau %.2f: zeta %.6f, tau*omega1/2 %.6f (omega1 %.6f, n = %d), CASES %.6f\n", taus[i],
+    std::printf("tau %.2f: zeta %.6f, tau*omega1/2 %.6f (omega1 %.6f, n = %d), EB %.6f\n", taus[i],
                 zeta[i], expected, w1, n, cases_zeta[i]);
     EXPECT_NEAR(zeta[i], expected, 3e-5 * expected);
-    // Against CASES (Euler–Bernoulli ω₁): they differ by ω₁(n=20)/ω_EB − 1,
+    // Against the Euler–Bernoulli values: they differ by ω₁(n=20)/ω_EB − 1,
     // the discretization and Timoshenko lowering of ω₁ (tested in test_modes).
     EXPECT_NEAR(zeta[i], cases_zeta[i], std::abs(w1 / w_eb - 1) * cases_zeta[i] + 3e-5 * expected + 1e-6);
   }
@@ -194,8 +197,9 @@ double run_released(int n, double tau, double h, int steps, const State<double>&
 }  // namespace
 
 TEST(Damping, ImplicitViscousStepDoesNotDependOnTau) {
-  // CASES 5c / DESIGN §3: with τ up to 0.1 s the implicit scheme runs at 0.9×
-  // the UNDAMPED stable step 2/ω_max (ω_max from the eigenproblem), where the
+  // docs/validation.md "5c Implicit Kelvin–Voigt step independent of τ": with
+  // τ up to 0.1 s the implicit scheme runs at 0.9× the UNDAMPED stable step
+  // 2/ω_max (ω_max from the eigenproblem), where the
   // explicit viscous scheme, limited to 2/(τ ω_max²) — about 1/(τ ω_max)/2 ≈
   // 1000× smaller — blows up. The tip never exceeds its initial deflection
   // (energy only falls).

@@ -1,7 +1,9 @@
-// Driven roots (include/manyrods/drive.h; issue 6): a clamped root that
-// follows a prescribed rigid motion. Exact identities (Galilean invariance, a
-// rod spun about its own axis), the order of the time error, and base
-// excitation of the seed cantilever against Euler–Bernoulli theory.
+// Driven roots (include/manyrods/drive.h; docs/validation.md "6a Galilean
+// invariance and rigid spin" to "6c Base excitation against
+// Euler–Bernoulli"): a clamped root that follows a prescribed rigid motion.
+// Exact identities (Galilean invariance, a rod spun about its own axis), the
+// order of the time error, and base excitation of the seed cantilever
+// against Euler–Bernoulli theory.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -314,7 +316,8 @@ TEST(DrivenRoot, BaseExcitationMatchesEulerBernoulli) {
   // Error budget: the discrete rod's bending frequencies lie below
   // Euler–Bernoulli's by the Timoshenko lowering plus the n = 50
   // discretization error, together < 0.1 % for mode 1 (tests/test_modes.cpp,
-  // CASES 2a). A relative frequency error δ acts as a forcing frequency off
+  // docs/validation.md "2a Small-amplitude bending frequencies"). A relative
+  // frequency error δ acts as a forcing frequency off
   // by δ, i.e. βL off by δ/2: the steady state moves by |φ(L; βL(1 + δ/2)) −
   // φ(L; βL)| Y, and the start on the theory's (not the rod's) steady state
   // adds a free vibration of the same size: twice that in all. Time error

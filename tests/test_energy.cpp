@@ -1,5 +1,5 @@
-// CASES.md §2c — energy without damping: bounded, with the error of Position
-// Verlet falling as O(dt²), over more than 10⁵ steps.
+// docs/validation.md "2c Energy without damping": bounded, with the error of
+// Position Verlet falling as O(dt²), over more than 10⁵ steps.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,4 +1,4 @@
-// tests/test_h5io.cpp — the HDF5 output file (host/h5io.h): round trip of
+// tests/test_h5io.cpp — the HDF5 output file (include/manyrods/h5io.h): round trip of
 // frames, energies and checkpoints in double and float; the temporary file
 // and the rename; h5py reads the layout docs/scenes.md documents; missing,
 // foreign, truncated and incomplete files give clear errors.
@@ -16,7 +16,7 @@
 #include <typeinfo>
 #include <vector>
 
-#include "host/h5io.h"
+#include "manyrods/h5io.h"
 
 using namespace manyrods;
 namespace fs = std::filesystem;

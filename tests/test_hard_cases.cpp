@@ -1,7 +1,7 @@
-// Hard cases (issue 5): rods that break careless steppers, each stepped
-// 10⁵ steps of Position Verlet with the implicit Kelvin–Voigt update at
-// 0.9 × stable_dt(b).elastic (recomputed for the case, so the estimate is
-// tested on them too), with gravity: the state stays finite (advance()
+// Hard cases (docs/validation.md "5d Hard cases"): rods that break careless
+// steppers, each stepped 10⁵ steps of Position Verlet with the implicit
+// Kelvin–Voigt update at 0.9 × stable_dt(b).elastic (recomputed for the
+// case, so the estimate is tested on them too), with gravity: the state stays finite (advance()
 // would throw NonFiniteError) and bounded, and the mechanical energy
 // (kinetic + elastic + gravity) does not increase.
 //
@@ -13,7 +13,8 @@
 //   3. element lengths differing 100× (alternating long and short);
 //   4. τ = 0.1 s with the implicit viscous update (large swing);
 //   5. curly hair: a helical rest shape turning ≈ 1 rad per element, with
-//      the hair material of CASES 5b.
+//      the hair material (docs/validation.md "0a Test rods: the seed cantilever
+//      and human hair").
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -23,7 +24,7 @@
 #include <string>
 
 #include "cases.h"
-#include "manyrods/statics.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::cases;
@@ -209,8 +210,8 @@ TEST(HardCases, Tau01ImplicitLargeSwing) {
 }
 
 TEST(HardCases, CurlyHair) {
-  // Hair (CASES 5b material) on a helix of radius 6.25 mm and pitch 4 mm
-  // per turn; element length 6.25 mm: the helix angle advances by ≈ 1 rad
+  // Hair (the material of cases::hair) on a helix of radius 6.25 mm and
+  // pitch 4 mm per turn; element length 6.25 mm: the helix angle advances by ≈ 1 rad
   // per element, and so does the tangent (measured below).
   const int n = 32;
   const double L = 0.2, l = L / n, R = 6.25e-3, pitch = 4e-3;

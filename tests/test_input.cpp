@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "cases.h"
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 

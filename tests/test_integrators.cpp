@@ -1,7 +1,8 @@
-// Time integrators (DESIGN.md §3, CASES.md §2c): the convergence ORDER of
-// Position Verlet (2) and PEFRL (4) measured on a nonlinear large swing, the
-// order of PEFRL's energy error (4), what the rigid-body term does to PEFRL,
-// and PEFRL with Kelvin–Voigt damping.
+// Time integrators (docs/model.md "Time stepping"; docs/validation.md "2e
+// Convergence order of the integrators" and "2c Energy without damping"):
+// the convergence ORDER of Position Verlet (2) and PEFRL (4) measured on a
+// nonlinear large swing, the order of PEFRL's energy error (4), what the
+// rigid-body term does to PEFRL, and PEFRL with Kelvin–Voigt damping.
 //
 // The swing: the seed cantilever (n = 20) released from its static shape
 // under a 0.05 N tip force (α = PL²/EI = 5.4, tip deflection ≈ 0.73 L: far
@@ -18,7 +19,7 @@
 
 #include "cases.h"
 #include "energy_budget.h"
-#include "manyrods/statics.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::cases;
@@ -119,7 +120,7 @@ void check_order(Method method, bool three_d, const int (&steps)[3], double expe
     const double p_frames = std::log2(e[i].frames / e[i + 1].frames);
     std::printf("  order h %.4g → %.4g: tip %.3f, nodes %.3f, frames %.3f\n", kT / steps[i],
                 kT / steps[i + 1], p_tip, p_nodes, p_frames);
-    // ±0.3 (the brief's band) holds what is not the leading error term:
+    // ±0.3 holds what is not the leading error term:
     //   the reference's own error, ≤ 1/256 of the finest error for PEFRL and
     //   ≤ 1e-5 of it for Verlet: an order shift < 0.01;
     //   round-off, ≈ 1e-13 m against ≥ 9e-12 m (PEFRL finest): < 0.02;
@@ -220,9 +221,10 @@ double pefrl_energy_error(const State<double>& s0, double T, int steps) {
 }  // namespace
 
 TEST(Integrators, PefrlEnergyErrorOrderFour) {
-  // CASES 2c for PEFRL: over a quarter period of mode 1 (T = 0.45 s, the
-  // swing from the released shape through the straight one, where the
-  // energy error of the symplectic method peaks) the energy error falls as
+  // docs/validation.md "2c Energy without damping" for PEFRL: over a
+  // quarter period of mode 1 (T = 0.45 s, the swing from the released shape
+  // through the straight one, where the energy error of the symplectic
+  // method peaks) the energy error falls as
   // O(h⁴). h = 90, 45, 22.5 µs. ±0.3 as above; the energy round-off
   // (≈ 1e-15 relative per evaluation) is far below the finest error
   // (≈ 3e-12 planar). (Position Verlet's O(h²) over 10⁵ steps:
@@ -245,10 +247,11 @@ constexpr Terms kKV{true, true, true, true, true, false, false};
 constexpr Terms kKVElastic{true, true, true, true, false, false, false};  // the kicks of the implicit scheme
 
 // Two placements of the implicit viscous update that step_pefrl does NOT
-// use (host/step.h explains why), built from the public stages: after EVERY
-// kick with that kick's length (every_kick = true; backward Euler backwards
-// over the inner kicks of length λh < 0), or h/2 after each of the two
-// outer kicks.
+// use (docs/model.md "PEFRL (fourth order)" and bench/RESULTS.md "Design
+// history (moved from the kernel headers)" say why), built from the public
+// stages: after EVERY kick with that kick's length (every_kick = true;
+// backward Euler backwards over the inner kicks of length λh < 0), or h/2
+// after each of the two outer kicks.
 void pefrl_viscous_inside(RodBatch<double>& b, double dt, bool every_kick) {
   const double xi = Pefrl::xi * dt, chi = Pefrl::chi * dt, mid = (1 - 2 * (Pefrl::chi + Pefrl::xi)) * dt;
   const double kicks[4] = {(0.5 - Pefrl::lambda) * dt, Pefrl::lambda * dt, Pefrl::lambda * dt,
@@ -304,7 +307,8 @@ TEST(Integrators, PefrlImplicitViscousStepDoesNotDependOnTau) {
   EXPECT_FALSE(worst_tip(b, 300, [&](RodBatch<double>& r) {
                  step_pefrl<kKV, Viscous::explicit_rate>(r, h);
                }) <= x0 * (1 + 1e-9));
-  // So do the implicit updates placed inside the composition (host/step.h):
+  // So do the implicit updates placed inside the composition (docs/model.md
+  // "PEFRL (fourth order)"):
   // after every kick with its length, and h/2 after the two outer kicks.
   for (bool every_kick : {true, false})
     EXPECT_FALSE(worst_tip(b, 300, [&](RodBatch<double>& r) { pefrl_viscous_inside(r, h, every_kick); }) <=
@@ -326,10 +330,11 @@ double pefrl_dissipation_residual(const State<double>& s0, double tau, double h,
 }  // namespace
 
 TEST(Integrators, PefrlViscousPartIsFirstOrder) {
-  // CASES 3c with PEFRL: the energy falls by ∫2D_v up to a residual that
-  // falls with h, at first order (the composition does not raise the
-  // viscous part's order, for either treatment; the conservative part's
-  // O(h⁴) energy error is ≈ 1e-9 relative at these h, far below).
+  // docs/validation.md "3c Dissipation identity" with PEFRL: the energy
+  // falls by ∫2D_v up to a residual that falls with h, at first order (the
+  // composition does not raise the viscous part's order, for either
+  // treatment; the conservative part's O(h⁴) energy error is ≈ 1e-9
+  // relative at these h, far below).
   //   explicit_rate: h at half its viscous limit 2/(τ ω_max²), which is
   //     small, so τ = 0.002 s and T = 0.02 s keep the run short: order
   //     1 ± 0.2 (measured 1.00, 1.00).
@@ -340,10 +345,11 @@ TEST(Integrators, PefrlViscousPartIsFirstOrder) {
   //     trapezoid sum is biased (5% of the drop at the coarsest h); the bias
   //     shrinks as fewer modes are overdamped, so the measured order rises
   //     above 1 (1.05, 1.29; 1.5, 1.7 on two more halvings). Asserted: at
-  //     least first order (≥ 0.8 per halving), which the placements that
-  //     host/step.h rejects do not reach (V(h) at the step's end: 0.6;
-  //     h/2 at each end: ≈ 0.1). The energy itself is more accurate than
-  //     the residual suggests: |E(T) − E_ref(T)| = 5e-10, 8e-11, 1.7e-10 J
+  //     least first order (≥ 0.8 per halving), which the rejected
+  //     placements (docs/model.md "PEFRL (fourth order)") do not reach
+  //     (V(h) at the step's end: 0.6; h/2 at each end: ≈ 0.1). The energy
+  //     itself is more accurate than the residual suggests:
+  //     |E(T) − E_ref(T)| = 5e-10, 8e-11, 1.7e-10 J
   //     at these h against Position Verlet's 3.9e-9, 2.0e-9, 1.0e-9 J
   //     (reference: explicit-rate PEFRL, h = 5e-7 s; measured once, too slow
   //     for this test).

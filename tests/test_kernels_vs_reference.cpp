@@ -188,8 +188,6 @@ constexpr Terms kNoShear = off(&Terms::shear);
 constexpr Terms kNoStretch = off(&Terms::stretch);
 constexpr Terms kNoBend = off(&Terms::bend);
 constexpr Terms kNoTwist = off(&Terms::twist);
-constexpr Terms kNoKelvinVoigt = off(&Terms::kelvin_voigt);
-constexpr Terms kNoGravity = off(&Terms::gravity);
 constexpr Terms kNoLoads = off(&Terms::loads);
 constexpr Terms kNothing{false, false, false, false, false, false, false};
 

@@ -1,5 +1,6 @@
-// CASES.md §2a, 2b — natural frequencies of the seed cantilever, measured two
-// independent ways: the linearized stiffness/mass eigenproblem (tests/linear.h,
+// docs/validation.md "2a Small-amplitude bending frequencies" and "2b Axial
+// and torsional frequencies" — natural frequencies of the seed cantilever,
+// measured two independent ways: the linearized stiffness/mass eigenproblem (tests/linear.h,
 // no time stepping) and a simulated free vibration (zero crossings).
 #include <gtest/gtest.h>
 
@@ -89,7 +90,7 @@ TEST(Modes, BendingFrequenciesEigenproblemAndFreeVibration) {
     EXPECT_GT(lowering, 0);
     EXPECT_LT(lowering, 2 * estimate);
     if (k == 0) {
-      EXPECT_LT(lowering, 1e-3);  // CASES 2a: below 0.1% for mode 1
+      EXPECT_LT(lowering, 1e-3);  // 2a: below 0.1% for mode 1
     }
     // n = 50 agrees with Euler–Bernoulli within the Timoshenko lowering plus
     // the n = 50 discretization error.
@@ -112,7 +113,7 @@ TEST(Modes, AxialAndTorsionalFrequencies) {
   const int n = 50;
   const Analysis a = analyse(n);
   const SectionProperties p = section_properties(Section::rectangle(kA, kA), kNu);
-  // CASES: J_T = 0.140577 a⁴ for the square.
+  // J_T = 0.140577 a⁴ for the square (docs/model.md "Cross sections").
   EXPECT_NEAR(p.torsion_constant / (kA * kA * kA * kA), 0.140577, 1e-6);
   const double c_axial = std::sqrt(kE / kRho);
   const double c_torsion = std::sqrt(kG * p.torsion_constant / (kRho * p.I3));

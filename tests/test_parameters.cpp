@@ -1,6 +1,8 @@
-// tests/test_parameters.cpp — CASES 3e (Kelvin–Voigt parameter forms), the
-// cross-section properties of every shape, and the per-slot model arrays that
-// build_batch derives from them (DESIGN.md §1).
+// tests/test_parameters.cpp — docs/validation.md "3e Parameter forms" and
+// "0b Cross-section properties and the batch model": Kelvin–Voigt parameter
+// forms, the cross-section properties of every shape, and the per-slot model
+// arrays that build_batch derives from them (docs/model.md "Retardation times
+// and the three parameter forms", "Cross sections").
 //
 // Tolerances. u = 2^-53 is the unit round-off of double. A quantity computed
 // with m roundings from exact inputs, with no cancellation, has a relative
@@ -18,7 +20,7 @@
 #include <vector>
 
 #include "cases.h"
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 
@@ -44,7 +46,7 @@ Material material(double E, double nu, double rho = 1000) {
   return m;
 }
 
-// The retardation times of CASES 3e computed here from (η, ζ), independently
+// The retardation times computed here from (η, ζ), independently
 // of host/material.cpp: G = E/(2(1+ν)), K = E/(3(1−2ν)), τS = η/G, τB = ζ/K,
 // τE = [(1−2ν)τB + 2(1+ν)τS]/3. At ν = ½, K = ∞ and τB = ζ/∞ = 0 (IEEE).
 struct Taus {
@@ -65,7 +67,7 @@ const std::vector<double> kNus = {0.0, 0.3, 0.45, 0.499};
 }  // namespace
 
 // ---------------------------------------------------------------------------
-// CASES 3e: the three parameter forms give the same retardation times.
+// 3e: the three parameter forms give the same retardation times.
 // ---------------------------------------------------------------------------
 
 TEST(ParameterForms, ThreeFormsAgreeForEveryPoissonRatio) {
@@ -103,7 +105,7 @@ TEST(ParameterForms, ThreeFormsAgreeForEveryPoissonRatio) {
     const double s = 3 * want.extension + 2 * (1 + nu) * want.shear;
     EXPECT_TRUE(near_ulps(from_se.bulk, want.bulk, 16, s / (1 - 2 * nu)));
 
-    // Extensional viscosity η_E = E τE = ζ(1−2ν)² + (4/3)η(1+ν)² (DESIGN §1):
+    // Extensional viscosity η_E = E τE = ζ(1−2ν)² + (4/3)η(1+ν)² (seed eq. 5):
     // both sides ≈ 40 roundings of positive terms → 64.
     const double eta_E = zeta * (1 - 2 * nu) * (1 - 2 * nu) + 4.0 / 3.0 * eta * (1 + nu) * (1 + nu);
     EXPECT_TRUE(near_ulps(from_visc.extensional_viscosity(c), eta_E, 64));
@@ -177,7 +179,7 @@ TEST(ParameterForms, RodsBuiltWithEachFormHaveTheSameModelArrays) {
 }
 
 // ---------------------------------------------------------------------------
-// CASES 3e pinned special cases.
+// 3e pinned special cases.
 // ---------------------------------------------------------------------------
 
 // ν = ½: E = 3G, τE = τS, and η_E = E τE = 3η (Trouton).
@@ -330,7 +332,7 @@ TEST(Sections, Rectangle) {
   EXPECT_CLOSED(p.I2, h * w * w * w / 12, 5);
   EXPECT_CLOSED(p.shear_factor1, 10 * (1 + 0.3) / (12 + 11 * 0.3), 5);  // Cowper (1966)
 
-  // Square: J_T = 0.140577 a⁴ (CASES base material), quoted to 6 digits →
+  // Square: J_T = 0.140577 a⁴ (the seed cantilever's section), quoted to 6 digits →
   // |error| ≤ 0.5e-6·a⁴.
   const double s = 0.01;
   const SectionProperties q = section_properties(Section::rectangle(s, s), 0.3);
@@ -349,7 +351,7 @@ TEST(Sections, Rectangle) {
   }
 
   // Very thin strip: J_T = w h³/3 (1 − c h/w + O(e^{−πw/h})) with c =
-  // (192/π⁵)·Σ_{odd n} n⁻⁵ = 0.630247…; the brief's c = 0.630 differs by
+  // (192/π⁵)·Σ_{odd n} n⁻⁵ = 0.630247…; the usual c = 0.630 differs by
   // 2.5e-4, i.e. a relative difference ≤ 2.5e-4·(h/w)/(1 − 0.63 h/w); the
   // exponential remainder at w/h ≥ 20 is below e^{−60}. Allow 3e-4·h/w.
   for (double ratio : {20.0, 50.0, 200.0}) {
@@ -504,7 +506,7 @@ TEST(BatchModel, SeedCantilever) {
   const double A = a * a, I = a * a * a * a / 12, I3 = a * a * a * a / 6, G = E / (2 * (1 + nu));
   const double kappa = 10 * (1 + nu) / (12 + 11 * nu);  // Cowper, rectangle
   const double JT = section_properties(Section::rectangle(a, a), nu).torsion_constant;
-  EXPECT_NEAR(JT / (a * a * a * a), 0.140577, 0.5e-6);  // CASES
+  EXPECT_NEAR(JT / (a * a * a * a), 0.140577, 0.5e-6);  // 0a
 
   RodSpec free_rod = cases::seed_cantilever(n);
   free_rod.name = "free";

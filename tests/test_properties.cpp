@@ -1,4 +1,5 @@
-// Property tests (STYLE.md "Tests"; CASES.md 2d, 3a): objectivity under
+// Property tests (docs/validation.md "2d Free fall", "3a Objectivity under rigid
+// motion", "7c Frames, permutation and thread count"): objectivity under
 // rigid motion, orthonormal frames over long runs, permutation invariance of
 // the batch, thread-count determinism, and free fall.
 //
@@ -37,7 +38,7 @@ Mat3 mat(const M3& q) {
   return m;
 }
 
-// Seed-cantilever material (CASES.md): 1 cm × 1 cm, E = 1 MPa, ν = 0.3,
+// Seed-cantilever material (tests/cases.h): 1 cm × 1 cm, E = 1 MPa, ν = 0.3,
 // ρ = 1000, with Kelvin–Voigt τS = 0.01 s, τE = 0.02 s.
 void seed_material(RodSpec& s) {
   s.section = Section::rectangle(0.01, 0.01);
@@ -113,7 +114,7 @@ constexpr Terms kInternal = [] {
   return t;
 }();
 
-// CASES 3a. A rigid translation plus a rigid rotation at 40 rad/s, by large
+// 3a. A rigid translation plus a rigid rotation at 40 rad/s, by large
 // angles up to nearly π, of strongly curled rods (relative rotations of
 // about 1 rad between neighbours) at their rest shape: the elastic AND
 // viscous resultants vanish, so the internal node forces and element
@@ -365,31 +366,7 @@ TEST(Properties, PermutingRodsPermutesResultsExplicitViscous) { check_permutatio
 
 // ---- (d) thread count ----------------------------------------------------------
 
-// FNV-1a (64 bit) over the bytes of every real state entry (nodes 0…n and
-// elements 0…n−1 of every rod, in order; ghosts and padding excluded).
-std::uint64_t state_hash(const RodBatch<double>& b) {
-  std::uint64_t h = 14695981039346656037ull;
-  auto add = [&](double x) {
-    const std::uint64_t v = bits(x);
-    for (int i = 0; i < 8; ++i) {
-      h ^= (v >> (8 * i)) & 0xff;
-      h *= 1099511628211ull;
-    }
-  };
-  for (int r = 0; r < b.rod_count(); ++r) {
-    for (int j = 0; j <= b.elements(r); ++j)
-      for (int d = 0; d < 3; ++d) {
-        add(b.state.node_x[d][b.node_index(r, j)]);
-        add(b.state.node_v[d][b.node_index(r, j)]);
-      }
-    for (int e = 0; e < b.elements(r); ++e) {
-      for (int i = 0; i < 9; ++i) add(b.state.elem_Q[i][b.elem_index(r, e)]);
-      for (int d = 0; d < 3; ++d) add(b.state.elem_w[d][b.elem_index(r, e)]);
-    }
-  }
-  return h;
-}
-
+// state_hash (include/manyrods/batch.h): FNV-1a over every real state entry.
 template <Viscous kV>
 void check_threads() {
   std::vector<RodSpec> specs;
@@ -417,7 +394,7 @@ void check_threads() {
 TEST(Properties, ThreadCountDoesNotChangeResultImplicitViscous) { check_threads<Viscous::implicit>(); }
 TEST(Properties, ThreadCountDoesNotChangeResultExplicitViscous) { check_threads<Viscous::explicit_rate>(); }
 
-// ---- (e) free fall (CASES 2d) --------------------------------------------------
+// ---- (e) free fall (2d) -------------------------------------------------------
 
 // A free curly rod (rest shape = initial shape) thrown with a uniform
 // velocity v0 under gravity g falls rigidly: x_j(t) = x_j(0) + v0 t + ½ g t²,

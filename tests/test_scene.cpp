@@ -1,4 +1,4 @@
-// tests/test_scene.cpp — TOML scenes (host/scene.h, docs/scenes.md): the
+// tests/test_scene.cpp — TOML scenes (include/manyrods/scene.h, docs/scenes.md): the
 // example scenes load into the rods they describe, every kind of bad input
 // is an error naming file, line, column and key, term switches and rest
 // curvature do what the docs say, and --vary overrides reach the rods.
@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "cases.h"
-#include "host/scene.h"
-#include "host/scene_run.h"
-#include "manyrods/statics.h"
+#include "manyrods/scene.h"
+#include "manyrods/scene.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::scene;
@@ -78,7 +78,7 @@ TEST(Scene, SeedCantileverExampleMatchesTheApiRod) {
   EXPECT_TRUE(s.groups[0].has_initial_tip_force);
 
   // The initial state is the static equilibrium under the tip force, the
-  // same as solve_static on the API rod (CASES 1b style set-up).
+  // same as solve_static on the API rod (the set-up of the elastica case 1b).
   const RodBatch<double> b = build_scene_batch<double>(s);
   RodBatch<double> api = build_batch<double>({ref});
   api.set_node_force(0, 50, {0.05, 0, 0});
@@ -164,7 +164,7 @@ TEST(Scene, RestCurvatureBuildsTheRodUnstressedInThatShape) {
 }
 
 // A term switched off by zeroing its stiffness (the scene's way) steps like
-// the compile-time switch of kernels/terms.h.
+// the compile-time switch of include/manyrods/terms.h.
 TEST(Scene, TermSwitchedOffByZeroStiffnessEqualsTheCompileTimeSwitch) {
   const std::string extra =
       "root = \"clamped\"\ntip_force = [0.02, 0.01, 0.0]\n[rods.terms]\nbend = false\ntwist = false\n";

@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 

@@ -24,7 +24,8 @@ TEST(StableDt, GershgorinBoundIsBelowAndWithinTwoOfTheLinearLimit) {
     // limit (up to the 1e-9 accuracy of the finite-difference eigenproblem).
     EXPECT_LE(est.elastic, exact * (1 + 1e-9));
     EXPECT_GE(est.elastic, exact / 2);
-    // The explicit viscous limit 2/(τ ω_max²) is far below (DESIGN §3).
+    // The explicit viscous limit 2/(τ ω_max²) is far below (docs/model.md
+    // "Kelvin–Voigt in time: explicit rates or implicit backward Euler").
     EXPECT_LT(est.explicit_viscous, est.elastic / 100);
   }
 }
@@ -33,7 +34,8 @@ TEST(StableDt, GershgorinBoundIsBelowAndWithinTwoOfTheLinearLimit) {
 
 namespace {
 
-// The three rods of issue 5 / CASES 5a–5b, clamped at the root.
+// The three rods of docs/validation.md "5a stable_dt against the true limit",
+// clamped at the root.
 struct StabilityCase {
   const char* name;
   RodSpec rod;
@@ -53,7 +55,7 @@ StabilityCase stability_case(int which, Damping damping) {
     s.clamped_root = true;
     return {"cable n=100", s, {0, 0, 0}};
   }
-  // CASES 5b: human hair, n = 32, clamped horizontally, under gravity
+  // Human hair (5b), n = 32, clamped horizontally, under gravity
   return {"hair n=32", hair(32, false, damping), {0, 0, -9.81}};
 }
 
@@ -139,7 +141,7 @@ Limit true_limit(const RodBatch<double>& b, double guess, int max_doublings) {
 
 TEST(StableDt, EstimateAgainstTheTrueLimitByBisection) {
   // Position Verlet, undamped: the estimate (Gershgorin bound of 2/ω_max)
-  // is never above the true limit and at least half of it (CASES 5a, issue 5).
+  // is never above the true limit and at least half of it (5a).
   // "≤": est ≤ lo, where lo is a step that stayed bounded (lo is within
   // 1e-3 + 1e-5 of the true limit, see kProbeSteps). "≥ half": est ≥ hi/2.
   constexpr Terms kUndamped{true, true, true, true, false, true, false};
@@ -227,7 +229,7 @@ TEST(StableDt, StiffHairEstimateAgainstTheTrueLimitByBisection) {
     EXPECT_LE(est, lim.lo) << n;
     EXPECT_GE(est, 0.5 * lim.hi) << n;
   }
-  // Frame rate: at n = 32 the estimate is above 1e-4 s (issue 5).
+  // Frame rate: at n = 32 the estimate is above 1e-4 s (5b).
   EXPECT_GE(stable_dt<kUndamped>(build_batch<double>({hair(32, true)})).elastic, 1e-4);
 }
 
@@ -239,7 +241,8 @@ TEST(StableDt, StiffHairSwingingUnderGravityAtHalfTheEstimate) {
   // the frozen half-step geometry, so each step leaves a strain of order
   // (h|ω|)² that the next one removes; measured with this probe, the hair
   // swinging 2 s is bounded up to 0.95 × the estimate at n = 32 and blows up
-  // above (README, "Stiff rods": use at most half of stable_dt).
+  // above (docs/model.md "Stiff rods: shear, stretch and twist linearly
+  // implicit": use at most half of stable_dt).
   constexpr Terms kUndamped{true, true, true, true, false, true, false};
   for (int n : {32, 64}) {
     const auto b = build_batch<double>({hair(n, true)}, {0, 0, -9.81});

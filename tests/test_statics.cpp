@@ -1,4 +1,5 @@
-// CASES.md §1 — statics: pure bending into a circle (1a) and the
+// docs/validation.md "1a Pure bending into a circle" and "1b Large-deflection
+// cantilever (elastica)" — statics: pure bending into a circle and the
 // large-deflection cantilever (1b), solved by Newton (host/statics.h).
 #include <gtest/gtest.h>
 
@@ -6,7 +7,7 @@
 #include <numbers>
 
 #include "cases.h"
-#include "manyrods/statics.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::cases;
@@ -107,7 +108,8 @@ Elastica elastica(int n, double alpha) {
 struct Row {
   double alpha, deflection, shortening, rotation;
 };
-// CASES.md 1b: converged inextensible, unshearable reference.
+// 1b: converged inextensible, unshearable reference (shooting on
+// θ'' = −α cos θ, θ(0) = 0, θ'(1) = 0; docs/validation.md).
 constexpr Row kTable[] = {{1, 0.301720774, 0.0564332363, 0.461351950},
                           {2, 0.493457480, 0.160641721, 0.781749832},
                           {10, 0.810609025, 0.554995598, 1.430285539}};
@@ -129,7 +131,7 @@ TEST_P(ElasticaCase, MatchesReferenceAtSecondOrder) {
   for (int i = 0; i < 3; ++i) {
     SCOPED_TRACE(testing::Message() << "alpha " << ref.alpha << " quantity " << i << " errors "
                                     << a[i] << " " << b[i] << " " << c[i]);
-    // CASES 1b: the standard scheme's discrete error at n = 50 is about 2e-4
+    // 1b: the standard scheme's discrete error at n = 50 is about 2e-4
     // relative. Bound it at 1e-3 relative and demand the O(dx²) order.
     EXPECT_LT(std::abs(b[i]) / refs[i], 1e-3);
     const double p = std::log2(a[i] / b[i]), q = std::log2(b[i] / c[i]);

@@ -1,6 +1,7 @@
-// Stiff rods at frame-rate steps (RodSpec::stiff_implicit; issue 5, CASES
-// 5b): shear, stretch and twist integrated linearly implicitly in the
-// block-tridiagonal solve (kernels/viscous_implicit.h), bending explicit.
+// Stiff rods at frame-rate steps (RodSpec::stiff_implicit; docs/validation.md
+// "5b Stiff human hair at frame-rate steps"): shear, stretch and twist
+// integrated linearly implicitly in the block-tridiagonal solve
+// (kernels/viscous_implicit.h), bending explicit.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -51,7 +52,7 @@ TEST(StiffRods, SwingingHairAtFrameRateStepsMatchesTheResolvedRun) {
     std::printf("stiff hair n=32, dt %.0e s: max tip error over %.1f s = %.3e m = %.3e L\n", dts[i], T, err[i],
                 err[i] / kHairL);
   }
-  // Issue 5: tip-trajectory error below 1 % of the length at dt ≥ 1e-4 s.
+  // The target: tip-trajectory error below 1 % of the length at dt ≥ 1e-4 s.
   EXPECT_LT(err[0], 1e-2 * kHairL);
   // Convergence. The scheme is first order overall: bending (the motion) is
   // explicit Position Verlet, second order, and the implicit stiff part

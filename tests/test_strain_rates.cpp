@@ -1,5 +1,6 @@
-// CASES.md §3b — the closed-form strain rates σ̇, κ̇ (kernels/strains.h)
-// against central differences in time of σ, κ along a smooth motion.
+// docs/validation.md "3b Closed-form strain rates" — the closed-form strain
+// rates σ̇, κ̇ (kernels/strains.h) against central differences in time of σ,
+// κ along a smooth motion.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -7,7 +8,7 @@
 #include <random>
 #include <utility>
 
-#include "manyrods/manyrods.h"
+#include "manyrods/advanced.h"
 
 using namespace manyrods;
 
@@ -161,7 +162,7 @@ TEST(StrainRates, PlainAngularVelocityDifferenceIsWrongOnCurlyRods) {
   // The naive rate (ω_b − ω_a)/D̂ is not the rate of the discrete curvature
   // when neighbouring frames differ by a large rotation: under a rigid
   // rotation of a curly rod (κ̇ = 0 exactly) it is far from zero, while the
-  // closed form vanishes to round-off. (CASES 3a: the hard case.)
+  // closed form vanishes to round-off. (3a: the hard case.)
   std::mt19937 rng(11);
   auto b = build_batch<double>({curly_rod(9, 1.0, rng)});
   const Eigen::Vector3d Omega(0.3, -2.0, 1.1);  // lab angular velocity, rigid

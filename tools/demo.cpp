@@ -134,7 +134,9 @@ int main(int argc, char** argv) {
   std::printf("damping_ratio = %.9g\n", zeta);
   std::printf("element_steps_per_s = %.4g\n", double(steps) * n / sim_seconds);
 
-  // Context: the linear theory of CASES.md 3d (Euler–Bernoulli ω₁).
+  // Context: the linear theory (Euler–Bernoulli ω₁; docs/validation.md "3d
+  // Modal damping ratio") and the seed's empirical rule (docs/validation.md
+  // "8a Damping ratio of the seed cantilever").
   const double omega1 = 1.87510407 * 1.87510407 * std::sqrt(E * a * a * a * a / 12 / (rho * a * a * L * L * L * L));
   const double zeta_lin = tau * omega1 / 2;
   std::printf("linear_theory_damping_ratio = %.9g\n", zeta_lin);

@@ -1,4 +1,4 @@
-// tools/manyrods.cpp — the command-line tool (issue 6; docs/scenes.md).
+// tools/manyrods.cpp — the command-line tool (docs/scenes.md).
 //
 //   manyrods run scene.toml -o out.h5 [--threads N] [--until T] [--duration T]
 //   manyrods run --restart checkpoint.h5 -o out.h5 [--duration T] [--csv F]   (a run or a sweep)
@@ -22,10 +22,11 @@
 #include <map>
 #include <sstream>
 
-#include "host/h5io.h"
-#include "host/runner.h"
-#include "host/scene.h"
-#include "host/sweep.h"
+#include "manyrods/h5io.h"
+#include "manyrods/runner.h"
+#include "manyrods/scene.h"
+#include "manyrods/sweep.h"
+#include "manyrods/usd.h"
 
 using namespace manyrods;
 using namespace manyrods::scene;
@@ -42,12 +43,26 @@ extern "C" void on_sigint(int) {
 
 int default_threads() { return std::max(1, omp_get_max_threads()); }
 
+// With --profile: each stage's share of the step's thread-seconds.
+void profile_lines(const StageTimes& st) {
+  const double total = st.total();
+  if (!(total > 0)) return;
+  std::fprintf(stderr, "manyrods: profile (thread-seconds per stage, all steps):\n");
+  for (int i = 0; i < kStageCount; ++i) {
+    if (st.calls[std::size_t(i)] == 0) continue;
+    std::fprintf(stderr, "  %-15s %10.4f s  %5.1f %%  %lld calls\n", stage_name(Stage(i)), st.seconds[std::size_t(i)],
+                 100 * st.seconds[std::size_t(i)] / total, (long long)st.calls[std::size_t(i)]);
+  }
+  std::fprintf(stderr, "  %-15s %10.4f s\n", "total", total);
+}
+
 void summary_line(const RunResult& r, const std::string& out) {
   std::fprintf(stderr,
                "manyrods: %s: t = %.6g s after %lld steps (dt = %.4g s), %lld frames, %lld elements, "
-               "%.3g element-steps/s, %.3g s wall -> %s\n",
+               "%.3g element-steps/s, %.3g s wall, state hash %016llx -> %s\n",
                r.interrupted ? "stopped" : "done", r.time, (long long)r.steps, r.dt, (long long)r.frames,
-               (long long)r.elements, r.element_steps_per_s, r.wall_s, out.c_str());
+               (long long)r.elements, r.element_steps_per_s, r.wall_s, (unsigned long long)r.state_hash, out.c_str());
+  profile_lines(r.stages);
 }
 
 std::string read_file(const std::string& path) {
@@ -56,116 +71,6 @@ std::string read_file(const std::string& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-// ---- export: USD ASCII BasisCurves ---------------------------------------------
-
-std::string usd_name(const std::string& s, int index) {
-  std::string n = "group_" + std::to_string(index) + "_";
-  for (char c : s) n += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
-  return n;
-}
-
-// A string literal of the USD text format: \ and " escaped, controls dropped.
-std::string usd_string(const std::string& s) {
-  std::string q;
-  for (char c : s) {
-    if (c == '\\' || c == '"') q += '\\';
-    if (static_cast<unsigned char>(c) >= 0x20) q += c;
-  }
-  return q;
-}
-
-int export_usd(const std::string& in, const std::string& usd, int every) {
-  const h5::Reader rd(in);
-  const h5::Output& o = rd.output();
-  if (rd.frames() == 0) throw h5::H5Error(in + ": no frames to export");
-  const int rods = int(o.node_offsets.size()) - 1;
-  int groups = 0;
-  for (int g : o.rod_group) groups = std::max(groups, g + 1);
-  std::vector<std::string> names = o.group_names;
-  names.resize(std::size_t(groups));
-  // time code = frame index; timeCodesPerSecond = 1 / (the frame interval),
-  // so the animation plays in simulated real time (only the run's last frame
-  // can be closer to the one before; it keeps its index)
-  const double fps = rd.frames() > 1 && o.time[1] > o.time[0] ? 1 / (o.time[1] - o.time[0]) : 1;
-  std::vector<std::int64_t> frames;
-  for (std::int64_t f = 0; f < rd.frames(); f += every) frames.push_back(f);
-  if (frames.back() != rd.frames() - 1) frames.push_back(rd.frames() - 1);
-  const std::string tmp = usd + ".tmp";
-  {
-    std::vector<std::vector<double>> pos(frames.size());
-    for (std::size_t k = 0; k < frames.size(); ++k) {
-      rd.read_positions(frames[k], pos[k]);
-      for (double x : pos[k])  // USD cannot hold them (and "-nan" does not parse)
-        if (!std::isfinite(x))
-          throw h5::H5Error(in + ": frame " + std::to_string(frames[k]) + " has non-finite positions");
-    }
-    std::ofstream out(tmp);
-    if (!out) throw h5::H5Error(usd + ": cannot write");
-    out.precision(9);
-    out << "#usda 1.0\n(\n    defaultPrim = \"manyrods\"\n    doc = \"manyrods export of " << usd_string(in) << "\"\n"
-        << "    metersPerUnit = 1\n    upAxis = \"Z\"\n"
-        << "    startTimeCode = " << frames.front() << "\n    endTimeCode = " << frames.back()
-        << "\n    timeCodesPerSecond = " << fps << "\n    framesPerSecond = " << fps << "\n)\n\n";
-    out << "def Xform \"manyrods\"\n{\n";
-    for (int g = 0; g < groups; ++g) {
-      std::vector<int> members;
-      for (int r = 0; r < rods; ++r)
-        if (o.rod_group[r] == g) members.push_back(r);
-      if (members.empty()) continue;
-      out << "    def BasisCurves \"" << usd_name(names[g], g) << "\"\n    {\n";
-      out << "        uniform token type = \"linear\"\n        uniform token wrap = \"nonperiodic\"\n";
-      out << "        int[] curveVertexCounts = [";
-      for (std::size_t i = 0; i < members.size(); ++i)
-        out << (i ? ", " : "") << o.node_offsets[members[i] + 1] - o.node_offsets[members[i]];
-      out << "]\n        float[] widths = [";
-      bool first = true;
-      for (int r : members)
-        for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j) {
-          out << (first ? "" : ", ") << o.rod_width[r];
-          first = false;
-        }
-      out << "] (\n            interpolation = \"vertex\"\n        )\n";
-      // extent (the schema asks for it wherever the points change): the
-      // points' box padded by half the widest section, per time sample
-      double pad = 0;
-      for (int r : members) pad = std::max(pad, 0.5 * o.rod_width[r]);
-      out << "        float3[] extent.timeSamples = {\n";
-      for (std::size_t k = 0; k < frames.size(); ++k) {
-        double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-        for (int r : members)
-          for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j)
-            for (int d = 0; d < 3; ++d) {
-              lo[d] = std::min(lo[d], pos[k][3 * j + d]);
-              hi[d] = std::max(hi[d], pos[k][3 * j + d]);
-            }
-        out << "            " << frames[k] << ": [(" << float(lo[0] - pad) << ", " << float(lo[1] - pad) << ", "
-            << float(lo[2] - pad) << "), (" << float(hi[0] + pad) << ", " << float(hi[1] + pad) << ", "
-            << float(hi[2] + pad) << ")],\n";
-      }
-      out << "        }\n";
-      out << "        point3f[] points.timeSamples = {\n";
-      for (std::size_t k = 0; k < frames.size(); ++k) {
-        out << "            " << frames[k] << ": [";
-        bool f1 = true;
-        for (int r : members)
-          for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j) {
-            const double* p = &pos[k][3 * j];
-            out << (f1 ? "" : ", ") << '(' << float(p[0]) << ", " << float(p[1]) << ", " << float(p[2])
-                << ')';
-            f1 = false;
-          }
-        out << "],\n";
-      }
-      out << "        }\n    }\n";
-    }
-    out << "}\n";
-    if (!out) throw h5::H5Error(usd + ": error writing");
-  }
-  fs::rename(tmp, usd);
-  std::fprintf(stderr, "manyrods: %zu frames of %d rods -> %s\n", frames.size(), rods, usd.c_str());
-  return 0;
 }
 
 // ---- plot: gnuplot PNGs --------------------------------------------------------
@@ -292,160 +197,186 @@ int run_sweep(const Sweep& sw, RunOptions opt, std::string csv, const h5::Checkp
   return g_interrupt ? 130 : 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  // (CLI11's PositiveNumber prints the whole range up to DBL_MAX)
-  auto number_check = [](bool strict) {
-    return CLI::Validator(
-        [strict](std::string& s) {
-          try {
-            std::size_t used = 0;
-            const double v = std::stod(s, &used);
-            if (used == s.size() && std::isfinite(v) && (strict ? v > 0 : v >= 0)) return std::string();
-          } catch (const std::exception&) {
-          }
-          return std::string(strict ? "must be a number > 0" : "must be a number >= 0") + ", got '" + s + "'";
-        },
-        strict ? "NUMBER>0" : "NUMBER>=0");
-  };
-  const CLI::Validator positive = number_check(true), non_negative = number_check(false);
-  CLI::App app{"manyrods: many Cosserat rods with Kelvin-Voigt damping (scenes: docs/scenes.md)"};
-  app.require_subcommand(1);
-
+// Every option of every subcommand (CLI11 writes into it).
+struct Options {
   std::string scene_path, output, restart, csv, usd, plot_dir, input;
   int threads = default_threads(), samples = 0, every = 1;
   double until = -1, duration = -1;
   std::uint64_t seed = 0;
-  bool progress = isatty(2), no_progress = false, force_progress = false;
+  bool progress = isatty(2) != 0, no_progress = false, force_progress = false, profile = false;
   std::vector<std::string> vary;
+};
 
+struct Commands {
+  CLI::App *run, *sweep, *exp, *plot;
+};
+
+// (CLI11's PositiveNumber prints the whole range up to DBL_MAX)
+CLI::Validator number_check(bool strict) {
+  return CLI::Validator(
+      [strict](std::string& s) {
+        try {
+          std::size_t used = 0;
+          const double v = std::stod(s, &used);
+          if (used == s.size() && std::isfinite(v) && (strict ? v > 0 : v >= 0)) return std::string();
+        } catch (const std::exception&) {
+        }
+        return std::string(strict ? "must be a number > 0" : "must be a number >= 0") + ", got '" + s + "'";
+      },
+      strict ? "NUMBER>0" : "NUMBER>=0");
+}
+
+void add_progress_flags(CLI::App* c, Options& o) {
+  c->add_flag("--no-progress", o.no_progress, "no progress line on stderr (default: shown when stderr is a terminal)");
+  c->add_flag("--progress", o.force_progress, "progress line on stderr even when it is not a terminal");
+  c->add_flag("--profile", o.profile, "print the time of each stage of the step (thread-seconds) at the end");
+}
+
+CLI::App* add_run_command(CLI::App& app, Options& o) {
+  const CLI::Validator positive = number_check(true), non_negative = number_check(false);
   CLI::App* run = app.add_subcommand("run", "run a scene into an HDF5 file");
-  run->add_option("scene", scene_path, "scene file (TOML)");
-  run->add_option("-o,--output", output, "output HDF5 file")->required();
-  run->add_option("--restart", restart, "continue the run whose output (checkpoint) is this file");
-  run->add_option("--threads", threads, "OpenMP threads (results do not depend on it)")->check(positive);
-  run->add_option("--until", until,
-                  "stop at this simulated time (s); the file keeps a checkpoint to --restart from")
+  run->add_option("scene", o.scene_path, "scene file (TOML)");
+  run->add_option("-o,--output", o.output, "output HDF5 file")->required();
+  run->add_option("--restart", o.restart, "continue the run whose output (checkpoint) is this file");
+  run->add_option("--threads", o.threads, "OpenMP threads (results do not depend on it)")->check(positive);
+  run->add_option("--until", o.until, "stop at this simulated time (s); the file keeps a checkpoint to --restart from")
       ->check(non_negative);
-  run->add_option("--duration", duration, "override [simulation] duration (s)")->check(positive);
-  run->add_option("--csv", csv, "restarting a sweep: summary CSV (default: the output with .csv)");
-  run->add_flag("--no-progress", no_progress,
-                "no progress line on stderr (default: shown when stderr is a terminal)");
-  run->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
+  run->add_option("--duration", o.duration, "override [simulation] duration (s)")->check(positive);
+  run->add_option("--csv", o.csv, "restarting a sweep: summary CSV (default: the output with .csv)");
+  add_progress_flags(run, o);
+  return run;
+}
 
+CLI::App* add_sweep_command(CLI::App& app, Options& o) {
+  const CLI::Validator positive = number_check(true), non_negative = number_check(false);
   CLI::App* sweep = app.add_subcommand("sweep", "run every variation of a scene as rods of one batch");
-  sweep->add_option("scene", scene_path, "scene file (TOML)")->required();
-  sweep
-      ->add_option("--vary", vary,
-                   "KEY=lo:hi:n | KEY=lo:hi | KEY=v1,v2,.. (e.g. rods.0.damping.tau_extension=0.01:0.1:64)")
+  sweep->add_option("scene", o.scene_path, "scene file (TOML)")->required();
+  sweep->add_option("--vary", o.vary, "KEY=lo:hi:n | KEY=lo:hi | KEY=v1,v2,.. (e.g. rods.0.damping.tau_extension=0.01:0.1:64)")
       ->required()
       ->allow_extra_args(false)  // one KEY=SPEC per --vary (repeat it), so a scene after it stays positional
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  sweep->add_option("--samples", samples, "random sampling: number of variations")->check(non_negative);
-  sweep->add_option("--seed", seed, "random sampling: seed");
-  sweep->add_option("-o,--output", output, "output HDF5 file")->required();
-  sweep->add_option("--csv", csv, "summary CSV (default: the output with .csv)");
-  sweep->add_option("--threads", threads, "OpenMP threads")->check(positive);
-  sweep->add_option("--duration", duration, "override [simulation] duration (s)")->check(positive);
-  sweep
-      ->add_option("--until", until,
-                   "stop at this simulated time (s); the file keeps a checkpoint to continue with run --restart")
+  sweep->add_option("--samples", o.samples, "random sampling: number of variations")->check(non_negative);
+  sweep->add_option("--seed", o.seed, "random sampling: seed");
+  sweep->add_option("-o,--output", o.output, "output HDF5 file")->required();
+  sweep->add_option("--csv", o.csv, "summary CSV (default: the output with .csv)");
+  sweep->add_option("--threads", o.threads, "OpenMP threads")->check(positive);
+  sweep->add_option("--duration", o.duration, "override [simulation] duration (s)")->check(positive);
+  sweep->add_option("--until", o.until, "stop at this simulated time (s); the file keeps a checkpoint to continue with run --restart")
       ->check(non_negative);
-  sweep->add_flag("--no-progress", no_progress,
-                  "no progress line on stderr (default: shown when stderr is a terminal)");
-  sweep->add_flag("--progress", force_progress, "progress line on stderr even when it is not a terminal");
+  add_progress_flags(sweep, o);
+  return sweep;
+}
 
-  CLI::App* exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
-  exp->add_option("input", input, "manyrods HDF5 output")->required();
-  exp->add_option("--usd", usd, "USD ASCII file to write (.usda)")->required();
-  exp->add_option("--every", every, "export every k-th frame")->check(positive);
+Commands add_commands(CLI::App& app, Options& o) {
+  Commands c{add_run_command(app, o), add_sweep_command(app, o), nullptr, nullptr};
+  c.exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
+  c.exp->add_option("input", o.input, "manyrods HDF5 output")->required();
+  c.exp->add_option("--usd", o.usd, "USD ASCII file to write (.usda)")->required();
+  c.exp->add_option("--every", o.every, "export every k-th frame")->check(number_check(true));
+  c.plot = app.add_subcommand("plot", "PNG plots of an output file with gnuplot");
+  c.plot->add_option("input", o.input, "manyrods HDF5 output")->required();
+  c.plot->add_option("--out-dir", o.plot_dir, "directory for the PNGs (default: <input>_plots)");
+  return c;
+}
 
-  CLI::App* plt = app.add_subcommand("plot", "PNG plots of an output file with gnuplot");
-  plt->add_option("input", input, "manyrods HDF5 output")->required();
-  plt->add_option("--out-dir", plot_dir, "directory for the PNGs (default: <input>_plots)");
+RunOptions run_options(const Options& o) {
+  RunOptions opt;
+  opt.output = o.output;
+  opt.threads = o.threads;
+  opt.until = o.until;
+  opt.duration = o.duration;
+  opt.progress = o.progress;
+  opt.profile = o.profile;
+  opt.interrupt = &g_interrupt;
+  std::signal(SIGINT, on_sigint);
+  return opt;
+}
 
+int command_run(const Options& o) {
+  if (o.restart.empty() == o.scene_path.empty()) {
+    std::fprintf(stderr, "manyrods run: give a scene file, or --restart FILE (not both)\n");
+    return 2;
+  }
+  if (!o.csv.empty() && o.restart.empty()) {
+    std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep (--restart sweep.h5)\n");
+    return 2;
+  }
+  const RunOptions opt = run_options(o);
+  RunResult r;
+  if (!o.restart.empty()) {
+    const h5::Checkpoint c = h5::read_checkpoint(o.restart);
+    if (c.from_sweep) {  // a sweep continued: the same variations, its records go on
+      const Sweep sw = sweep_of_checkpoint(c, o.restart);
+      return run_sweep(sw, opt, o.csv, &c);
+    }
+    if (!o.csv.empty()) {
+      std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep; %s is a run\n", o.restart.c_str());
+      return 2;
+    }
+    const Scene s = parse_scene(c.scene_text, o.restart + ":/scene");
+    r = run_scene(s, opt, &c);
+  } else {
+    const Scene s = load_scene(o.scene_path);
+    r = run_scene(s, opt);
+  }
+  summary_line(r, o.output);
+  return g_interrupt ? 130 : 0;
+}
+
+int command_sweep(const Options& o) {
+  std::vector<Vary> vs;
+  for (const std::string& v : o.vary) vs.push_back(parse_vary(v));
+  const Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, o.samples, o.seed);
+  return run_sweep(sw, run_options(o), o.csv, nullptr);
+}
+
+int command_export(const Options& o) {
+  const usd::ExportResult r = usd::export_usd(o.input, o.usd, o.every);
+  std::fprintf(stderr, "manyrods: %zu frames of %d rods -> %s\n", r.frames, r.rods, o.usd.c_str());
+  return 0;
+}
+
+// The exit status of an error (see the top of this file), with its message.
+int report(const std::exception& e) {
+  if (dynamic_cast<const SceneError*>(&e) || dynamic_cast<const h5::H5Error*>(&e)) {
+    std::fprintf(stderr, "manyrods: error: %s\n", e.what());
+    return 2;
+  }
+  if (dynamic_cast<const NonFiniteError*>(&e)) {
+    std::fprintf(stderr,
+                 "manyrods: the simulation failed: %s\n(no output written; a smaller dt or dt = \"auto\" may help)\n",
+                 e.what());
+    return 1;
+  }
+  if (dynamic_cast<const std::bad_alloc*>(&e)) {
+    std::fprintf(stderr, "manyrods: error: out of memory\n");
+    return 2;
+  }
+  std::fprintf(stderr, "manyrods: error: %s\n", e.what());
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"manyrods: many Cosserat rods with Kelvin-Voigt damping (scenes: docs/scenes.md)"};
+  app.require_subcommand(1);
+  Options o;
+  const Commands c = add_commands(app, o);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
-  if (force_progress) progress = true;
-  if (no_progress) progress = false;
-
+  if (o.force_progress) o.progress = true;
+  if (o.no_progress) o.progress = false;
   try {
-    if (run->parsed()) {
-      if (restart.empty() == scene_path.empty()) {
-        std::fprintf(stderr, "manyrods run: give a scene file, or --restart FILE (not both)\n");
-        return 2;
-      }
-      if (!csv.empty() && restart.empty()) {
-        std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep (--restart sweep.h5)\n");
-        return 2;
-      }
-      RunOptions opt;
-      opt.output = output;
-      opt.threads = threads;
-      opt.until = until;
-      opt.duration = duration;
-      opt.progress = progress;
-      opt.interrupt = &g_interrupt;
-      std::signal(SIGINT, on_sigint);
-      RunResult r;
-      if (!restart.empty()) {
-        const h5::Checkpoint c = h5::read_checkpoint(restart);
-        if (c.from_sweep) {  // a sweep continued: the same variations, its records go on
-          const Sweep sw = sweep_of_checkpoint(c, restart);
-          return run_sweep(sw, opt, csv, &c);
-        }
-        if (!csv.empty()) {
-          std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep; %s is a run\n",
-                       restart.c_str());
-          return 2;
-        }
-        const Scene s = parse_scene(c.scene_text, restart + ":/scene");
-        r = run_scene(s, opt, &c);
-      } else {
-        const Scene s = load_scene(scene_path);
-        r = run_scene(s, opt);
-      }
-      summary_line(r, output);
-      return g_interrupt ? 130 : 0;
-    }
-    if (sweep->parsed()) {
-      std::vector<Vary> vs;
-      for (const std::string& v : vary) vs.push_back(parse_vary(v));
-      const Sweep sw = make_sweep(read_file(scene_path), scene_path, vs, samples, seed);
-      RunOptions opt;
-      opt.output = output;
-      opt.threads = threads;
-      opt.until = until;
-      opt.duration = duration;
-      opt.progress = progress;
-      opt.interrupt = &g_interrupt;
-      std::signal(SIGINT, on_sigint);
-      return run_sweep(sw, opt, csv, nullptr);
-    }
-    if (exp->parsed()) return export_usd(input, usd, every);
-    if (plt->parsed()) return plot(input, plot_dir);
-  } catch (const SceneError& e) {
-    std::fprintf(stderr, "manyrods: error: %s\n", e.what());
-    return 2;
-  } catch (const h5::H5Error& e) {
-    std::fprintf(stderr, "manyrods: error: %s\n", e.what());
-    return 2;
-  } catch (const NonFiniteError& e) {
-    std::fprintf(
-        stderr,
-        "manyrods: the simulation failed: %s\n(no output written; a smaller dt or dt = \"auto\" may help)\n",
-        e.what());
-    return 1;
-  } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "manyrods: error: out of memory\n");
-    return 2;
+    if (c.run->parsed()) return command_run(o);
+    if (c.sweep->parsed()) return command_sweep(o);
+    if (c.exp->parsed()) return command_export(o);
+    if (c.plot->parsed()) return plot(o.input, o.plot_dir);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "manyrods: error: %s\n", e.what());
-    return 1;
+    return report(e);
   }
   return 0;
 }

@@ -1,5 +1,5 @@
 // include/manyrods/batch.h — rods, and the batch that holds many of them in
-// structure-of-arrays form (DESIGN.md §4).
+// structure-of-arrays form (docs/architecture.md "Data: Model, State, Scratch, Loads").
 //
 // Slot layout. Rod r with n_r elements owns the slots [o_r, o_r + n_r + 2):
 //
@@ -22,11 +22,12 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
-#include "kernels/viscous_implicit.h"
 #include "manyrods/array.h"
 #include "manyrods/drive.h"
+#include "manyrods/fields.h"
 #include "manyrods/material.h"
 
 namespace manyrods {
@@ -42,7 +43,7 @@ struct RodSpec {
   Material material;
   Damping damping;
   // Multiplies C_F = (κ1GA, κ2GA, EA), e.g. 1e4 for a nearly inextensible,
-  // unshearable rod (CASES 1b). The viscous V_F scales with it.
+  // unshearable rod (the elastica case of docs/validation.md). The viscous V_F scales with it.
   double shear_stretch_scale = 1;
   bool clamped_root = false;          // node 0 fixed, frame fixed at s = 0
   // Stiff rods (hair, wire: shear, stretch and twist far stiffer than
@@ -78,7 +79,8 @@ struct RodSpec {
 // A run of slots holding whole rods [rod_begin, rod_end), 64-aligned. A
 // "fused" segment is small enough (≤ kSegmentSlots) to stay in L2 while the
 // step runs all its stages on it; a rod longer than that gets a segment of
-// its own, stepped stage by stage (host/step.h).
+// its own, stepped stage by stage (docs/architecture.md "The segment
+// schedule").
 inline constexpr int kSegmentSlots = 2048;
 
 struct Segment {
@@ -87,6 +89,9 @@ struct Segment {
   bool fused = true;
   bool stiff = false;  // its rods are stiff (RodSpec::stiff_implicit): a segment holds only one kind
   int driven_begin = 0, driven_end = 0;  // its entries of RodBatch::driven
+  // its groups of the implicit-solve plans, [0] without and [1] with the
+  // Kelvin–Voigt term (RodBatch::solve_plan)
+  int groups_begin[2] = {0, 0}, groups_end[2] = {0, 0};
 };
 
 // A rod with a driven root: its motion (index into RodBatch::motions) and the
@@ -96,6 +101,23 @@ struct DrivenRoot {
   int motion = 0;
   Vec3 x0{};
   Mat3 q0{};
+};
+
+// The rods of one call of the implicit per-rod solve: `count` rods of
+// SolvePlan::rods from `first`, longest first, solved one per SIMD lane
+// (count ≥ 2; `half`: at half the lane width, because a full group of its
+// longest rod does not fit a thread's buffer) or by the scalar kernel
+// (count = 1). docs/architecture.md "The implicit-solve plan".
+struct SolveGroup {
+  int first = 0, count = 0;
+  bool half = false;
+};
+
+// Which rods the implicit solve visits, grouped once when the batch is built.
+struct SolvePlan {
+  int lanes = 0;            // rods per lane group it was built for
+  std::vector<int> rods;    // per segment, longest first (then by index)
+  std::vector<SolveGroup> groups;
 };
 
 struct RodInfo {
@@ -111,52 +133,69 @@ struct RodInfo {
   RetardationTimes tau{};
 };
 
-// Constant during a run (STYLE.md "Model"). Field shapes: [slots] unless [3]/[9].
+// One field of the lists in include/manyrods/fields.h: one array, or one
+// array per component.
+template <class T, int N>
+using FieldArray = std::conditional_t<N == 1, Array<T>, std::array<Array<T>, N>>;
+
+#define MANYRODS_STORAGE_MEMBER(name, n, fill, float_only, doc) FieldArray<T, n> name;
+
+// Constant during a run (include/manyrods/fields.h MANYRODS_MODEL_FIELDS has
+// every array with its shape and unit).
 template <class T>
 struct Model {
-  Array<T> node_mass, node_inv_mass;
-  Array<T> elem_rest_length;
-  std::array<Array<T>, 3> elem_stiffness, elem_rest_strain, elem_tau, elem_inertia,
-      elem_inv_inertia;
-  Array<T> vor_rest_length;
-  std::array<Array<T>, 3> vor_stiffness, vor_rest_curvature, vor_tau;
-  vec3<T> gravity{T(0), T(0), T(0)};
+  MANYRODS_MODEL_FIELDS(MANYRODS_STORAGE_MEMBER)
+  std::array<T, 3> gravity{T(0), T(0), T(0)};  // m/s²
 };
 
-// The only thing a checkpoint needs; hashed by tests.
+// The only thing a checkpoint needs; hashed by state_hash
+// (MANYRODS_STATE_FIELDS). node_xc is allocated for float batches only (empty
+// for double); code that sets node_x directly should zero it.
 template <class T>
 struct State {
-  std::array<Array<T>, 3> node_x, node_v;
-  std::array<Array<T>, 9> elem_Q;
-  std::array<Array<T>, 3> elem_w;
-  // float batches only (empty for double): the low part of node_x lost to
-  // round-off, carried to the next drift (kernels/integrate.h kinematic_node).
-  // Code that sets node_x directly should zero it.
-  std::array<Array<T>, 3> node_xc;
+  MANYRODS_STATE_FIELDS(MANYRODS_STORAGE_MEMBER)
   double time = 0;
   std::int64_t steps = 0;
 };
 
-// Derived each step (see kernels/views.h ScratchView for who writes what).
+// Derived each step (MANYRODS_SCRATCH_FIELDS says which kernel writes what),
+// plus the workspaces of the implicit solve and of the fallback kernels.
 template <class T>
 struct Scratch {
-  std::array<Array<T>, 3> elem_force, elem_couple, vor_moment, vor_kxm;
+  MANYRODS_SCRATCH_FIELDS(MANYRODS_STORAGE_MEMBER)
   // Block elimination of the implicit viscous update (kernels/viscous_implicit.h):
   // one buffer of `visc_cells` cells per thread (a segment's worth, not the
   // batch's), allocated on first use only.
   std::array<Array<T>, 36> visc_G;
   std::array<Array<T>, 6> visc_g;
   int visc_cells = 0, visc_threads = 0;
+  // [6 × driven roots] the root velocity and clamp angular velocity of each
+  // driven root, kept across the implicit solve (which runs on velocities
+  // relative to the root's rigid motion); entry i belongs to RodBatch::driven[i]
+  std::vector<T> driven_root_velocity;
   // Slots whose rotation exceeded the branch-free kernels' range in the
   // current stage (host/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
 };
 
-// Dead external loads in the lab frame, set by the user between steps.
+// Dead external loads in the lab frame, set by the user between steps
+// (MANYRODS_LOADS_FIELDS).
 template <class T>
 struct Loads {
-  std::array<Array<T>, 3> node_force, elem_couple;
+  MANYRODS_LOADS_FIELDS(MANYRODS_STORAGE_MEMBER)
 };
+
+#undef MANYRODS_STORAGE_MEMBER
+
+// The kernels' views of the arrays (kernels/views.h; code that launches
+// kernels includes it).
+template <class T> struct ModelView;
+template <class T> struct StateView;
+template <class T> struct ConstStateView;
+template <class T> struct ScratchView;
+template <class T> struct ConstScratchView;
+template <class T> struct LoadsView;
+template <class T> struct ImplicitScratchView;
 
 template <class T>
 class RodBatch {
@@ -170,6 +209,10 @@ class RodBatch {
   // Driven roots (include/manyrods/drive.h), by rod index; the distinct motions.
   std::vector<DrivenRoot> driven;
   std::vector<std::shared_ptr<const RootMotion>> motions;
+  // The rods of the implicit solve in lane groups, [0] without and [1] with
+  // the Kelvin–Voigt term (stiff rods always; damped rods with it), built
+  // with the batch; each segment owns a range of groups.
+  std::array<SolvePlan, 2> solve_plan;
 
   int rod_count() const { return static_cast<int>(rods.size()); }
   int slots() const { return slots_; }
@@ -223,9 +266,18 @@ class RodBatch {
 template <class T>
 RodBatch<T> build_batch(const std::vector<RodSpec>& rods, const Vec3& gravity = {0, 0, 0});
 
+// FNV-1a (64-bit) over the bytes of the real (non-ghost) state entries in rod
+// order: each node's x and v, then each element's Q and ω. Equal hashes mean
+// bit-identical states (up to the hash's collisions); a one-ulp change of one
+// entry changes it. Used by the tests, the benchmarks and `manyrods run`.
+template <class T>
+std::uint64_t state_hash(const RodBatch<T>& b);
+
 extern template class RodBatch<float>;
 extern template class RodBatch<double>;
 extern template RodBatch<float> build_batch<float>(const std::vector<RodSpec>&, const Vec3&);
 extern template RodBatch<double> build_batch<double>(const std::vector<RodSpec>&, const Vec3&);
+extern template std::uint64_t state_hash<float>(const RodBatch<float>&);
+extern template std::uint64_t state_hash<double>(const RodBatch<double>&);
 
 }  // namespace manyrods

@@ -13,7 +13,7 @@
 // relative rotation of the step's two poses, whose angle is only known
 // modulo 2π (a step that coarse cannot follow the motion anyway).
 //
-// How the step uses it (host/step.h apply_root_motion): at the start of each
+// How the step uses it (host/root_motion.h apply_root_motion): at the start of each
 // Position Verlet step, t → t + h, node 0 is put at x(t) and given the mean velocity
 // (x(t + h) − x(t))/h, and the clamp frame is put at Q(t) with the constant
 // angular velocity that turns it into Q(t + h) over the step. The drifts then
@@ -50,6 +50,8 @@ class RootMotion {
   // drift), possibly from several threads at once: must be thread-safe and
   // deterministic.
   virtual Pose at(double t) const = 0;
+  // Throws InputError naming the first bad parameter (build_batch calls it).
+  virtual void validate() const {}
 };
 
 // Oscillation about a pivot: translation a·s(t) and a rotation by θ·s(t)
@@ -68,7 +70,7 @@ struct OscillatingMotion : RootMotion {
   Vec3 pivot{0, 0, 0};                  // m
   Pose at(double t) const override;
   // Throws InputError naming the first bad field.
-  void validate() const;
+  void validate() const override;
 };
 
 // Key poses interpolated as USD and Alembic time samples are: translations
@@ -82,10 +84,10 @@ struct KeyframedMotion : RootMotion {
   Vec3 pivot{0, 0, 0};
   Pose at(double t) const override;
   // Throws InputError naming the first bad entry.
-  void validate() const;
+  void validate() const override;
 };
 
-// A motion over one step [t, t + h] (host/step.h apply_root_motion): the
+// A motion over one step [t, t + h] (host/root_motion.h apply_root_motion): the
 // poses at both ends and the constant lab angular velocity Ω that turns one
 // into the other, exp(h [Ω]×) = R(t + h) R(t)ᵀ.
 struct RootStep {

@@ -1,8 +1,142 @@
-// include/manyrods/step.h — stepping a batch: step<Terms>(batch, dt, exec)
-// (Position Verlet), step_pefrl (PEFRL), generalized_forces, energies,
-// find_non_finite (implemented in host/step.h); advance (many steps with a
-// non-finite watch, NonFiniteError; host/run.h).
+// include/manyrods/step.h — stepping a batch, and what a step reports.
+//
+//   step<Terms, Viscous>(batch, dt, exec)             one Position Verlet step
+//   step_n<Terms, Viscous>(batch, dt, count, exec)    `count` of them, temporally blocked
+//   step_pefrl<Terms, Viscous>(batch, dt, exec)       one PEFRL step (4th order)
+//   advance<Terms, Viscous, Integrator>(batch, dt, steps, exec, options)
+//                                                     many steps with a non-finite watch
+//   energies<Terms>(batch, rod)                       kinetic, elastic, potential, 2·D_v
+//   find_non_finite(batch)                            the first non-finite state entry
+//
+// The integrators, their order and stability are described in docs/model.md
+// "Time stepping"; how a step is scheduled over segments and threads in
+// docs/architecture.md. Results are bit-identical for any thread count.
+//
+// Which Terms are compiled. The library holds these functions for float and
+// double and for the Terms the scene runner selects: kAllTerms with the
+// Kelvin–Voigt term and gravity each on or off (kAllTerms, kNoKelvinVoigt,
+// kNoGravity, kNoKelvinVoigtNoGravity), with Viscous::implicit and both
+// integrators. Other combinations (e.g. shear off at compile time, or
+// Viscous::explicit_rate) are templates in manyrods/advanced.h, which code
+// built against the source tree includes instead of this header.
 #pragma once
 
-#include "host/step.h"
-#include "host/run.h"
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "manyrods/batch.h"
+#include "manyrods/profile.h"
+#include "manyrods/terms.h"
+
+namespace manyrods {
+
+// Execution settings come from the caller; no global state.
+struct Exec {
+  int threads = 1;             // OpenMP threads for this call
+  Profile* profile = nullptr;  // per-stage times (include/manyrods/profile.h), or none
+};
+
+// How the Kelvin–Voigt force is integrated.
+//   implicit:      backward Euler in the velocities after the elastic kick
+//                  (kernels/viscous_implicit.h): stable for any τ, one
+//                  block-tridiagonal solve per rod and step.
+//   explicit_rate: the viscous resultants use the rates at the start of the
+//                  kick; stable only for dt ≲ 2/(τ ω_max²). The accuracy
+//                  reference.
+enum class Viscous { implicit, explicit_rate };
+
+enum class Integrator { position_verlet, pefrl };
+
+// The Terms the library is compiled for (see above).
+inline constexpr Terms kNoKelvinVoigt{true, true, true, true, false, true, true};
+inline constexpr Terms kNoGravity{true, true, true, true, true, false, true};
+inline constexpr Terms kNoKelvinVoigtNoGravity{true, true, true, true, false, false, true};
+
+// Energies of rod `rod` (or of the whole batch when rod < 0), summed in
+// double in index order (deterministic).
+struct Energies {
+  double kinetic = 0;       // translational + rotational
+  double elastic = 0;       // stretch, shear, bend, twist
+  double potential = 0;     // gravity and dead point forces
+  double dissipation = 0;   // 2·D_v: rate of viscous energy loss, W
+  double total() const { return kinetic + elastic + potential; }
+};
+
+// The first non-finite entry of the state, if any: rod, what and index.
+struct NonFinite {
+  bool found = false;
+  int rod = -1;
+  std::string field;  // "node" or "element"
+  int index = -1;
+};
+
+// Thrown by advance() when the state stops being finite.
+struct NonFiniteError : std::runtime_error {
+  NonFiniteError(const std::string& what, NonFinite where_, std::int64_t step_, double time_)
+      : std::runtime_error(what), where(where_), step(step_), time(time_) {}
+  NonFinite where;    // first rod and node/element not finite after `step`
+  std::int64_t step;  // the batch's step count (State::steps) after the offending step
+  double time;        // simulated time after it, s
+};
+
+struct AdvanceOptions {
+  int check_every = 64;  // steps between checks (≥ 1); a check also follows the last step
+};
+
+// `count` Position Verlet steps of length dt for every rod in the batch, the
+// same result as `count` calls of step (docs/architecture.md "The segment
+// schedule": each segment runs all `count` steps while it is in cache).
+template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
+void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {});
+
+// One Position Verlet step of length dt for every rod in the batch.
+template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
+void step(RodBatch<T>& b, T dt, const Exec& ex = {}) {
+  step_n<kT, kV>(b, dt, 1, ex);
+}
+
+// One PEFRL step of length dt (Omelyan, Mryglod & Folk 2002; 4th order for
+// the conservative part; kEulerOrder: the order of the rigid-body sub-flow
+// in its kicks, 4 keeps the method 4th order in 3-D). Throws
+// std::invalid_argument for a batch with stiff rods (Position Verlet only).
+template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, int kEulerOrder = 4, class T>
+void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {});
+
+// Advances every rod of the batch by `steps` steps of length dt with the
+// chosen integrator. The state is checked every opt.check_every steps and
+// after the last; when it stops being finite, the steps since the last good
+// check are replayed to find the first bad one, the batch is left there and
+// NonFiniteError names the rod, node or element, step and time. Throws
+// std::invalid_argument for steps < 0 or check_every < 1.
+template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, Integrator kI = Integrator::position_verlet,
+          class T>
+void advance(RodBatch<T>& b, T dt, std::int64_t steps, const Exec& ex = {}, const AdvanceOptions& opt = {});
+
+template <Terms kT = kAllTerms, class T>
+Energies energies(const RodBatch<T>& b, int rod = -1);
+
+template <class T>
+NonFinite find_non_finite(const RodBatch<T>& b);
+
+// ---- what the library holds (host/instantiate.cpp) ---------------------------
+#define MANYRODS_STEP_DECLARATIONS(EXTERN, T, TERMS)                                                     \
+  EXTERN template void step_n<TERMS, Viscous::implicit, T>(RodBatch<T>&, T, std::int64_t, const Exec&);  \
+  EXTERN template void step_pefrl<TERMS, Viscous::implicit, 4, T>(RodBatch<T>&, T, const Exec&);         \
+  EXTERN template void advance<TERMS, Viscous::implicit, Integrator::position_verlet, T>(                \
+      RodBatch<T>&, T, std::int64_t, const Exec&, const AdvanceOptions&);                                \
+  EXTERN template void advance<TERMS, Viscous::implicit, Integrator::pefrl, T>(                          \
+      RodBatch<T>&, T, std::int64_t, const Exec&, const AdvanceOptions&);                                \
+  EXTERN template Energies energies<TERMS, T>(const RodBatch<T>&, int);
+#define MANYRODS_STEP_ALL_TERMS(EXTERN, T)                   \
+  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kAllTerms)           \
+  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoKelvinVoigt)      \
+  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoGravity)          \
+  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoKelvinVoigtNoGravity)
+
+MANYRODS_STEP_ALL_TERMS(extern, float)
+MANYRODS_STEP_ALL_TERMS(extern, double)
+extern template NonFinite find_non_finite<float>(const RodBatch<float>&);
+extern template NonFinite find_non_finite<double>(const RodBatch<double>&);
+
+}  // namespace manyrods

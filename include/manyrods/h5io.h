@@ -1,4 +1,4 @@
-// host/h5io.h — the HDF5 output file of a run (layout in docs/scenes.md,
+// include/manyrods/h5io.h — the HDF5 output file of a run (layout in docs/scenes.md,
 // "Output file"), its checkpoint, and reading both back. HDF5 C API.
 //
 //   /time                 [frames]                 s
@@ -30,6 +30,8 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "manyrods/fields.h"
 
 namespace manyrods::h5 {
 
@@ -65,7 +67,7 @@ struct Column {
 
 // The state of a run at one step: the batch's State arrays (raw slots, the
 // run's precision; stored as bytes) plus what continues the energy record
-// and, for a sweep, its per-variation records (host/runner.h ProbeRecord).
+// and, for a sweep, its per-variation records (manyrods/runner.h ProbeRecord).
 struct Checkpoint {
   bool float32 = false;
   std::int64_t slots = 0;
@@ -76,11 +78,13 @@ struct Checkpoint {
   std::int64_t frames_written = 0;  // frames of the run up to this state
   std::string scene_text, scene_source;
   bool from_sweep = false;  // the file is a sweep's (read only)
-  // [3][slots], [3][slots], [9][slots], [3][slots] of float or double, as bytes
-  std::vector<unsigned char> node_x, node_v, elem_Q, elem_w;
-  // float only: the positions' compensation (State::node_xc) [3][slots];
-  // empty for double (and zero when an older file lacks it)
-  std::vector<unsigned char> node_xc;
+  // The State arrays (include/manyrods/fields.h MANYRODS_STATE_FIELDS), raw
+  // slots of float or double as bytes, [components][slots] each: node_x,
+  // node_v, elem_Q, elem_w, and for float node_xc (empty for double, and
+  // for a float file written before it existed: then zero).
+#define MANYRODS_CHECKPOINT_MEMBER(name, n, fill, float_only, doc) std::vector<unsigned char> name;
+  MANYRODS_STATE_FIELDS(MANYRODS_CHECKPOINT_MEMBER)
+#undef MANYRODS_CHECKPOINT_MEMBER
   // A sweep's probe records up to this state (/checkpoint/probes; all
   // probes are sampled together): time [probes, samples], tip
   // [probes, samples, 3], and per probe max_strain, dissipated and the last

@@ -1,4 +1,4 @@
-// host/sweep.h — parameter sweeps: every variation of a scene becomes rods
+// include/manyrods/sweep.h — parameter sweeps: every variation of a scene becomes rods
 // of ONE batch (a sweep is a throughput workload), and each variation is
 // summarised from its rods (`manyrods sweep`, docs/scenes.md "Sweeps").
 //
@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "host/h5io.h"
-#include "host/runner.h"
-#include "host/scene.h"
+#include "manyrods/h5io.h"
+#include "manyrods/runner.h"
+#include "manyrods/scene.h"
 
 namespace manyrods::scene {
 

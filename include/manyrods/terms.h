@@ -1,4 +1,5 @@
-// kernels/terms.h — which physical terms a step includes (DESIGN.md §5).
+// include/manyrods/terms.h — which physical terms a step includes
+// (docs/model.md; docs/architecture.md "Adding a term").
 //
 // Terms is a structural type used as a template argument: a term that is off
 // is removed at compile time, so a scene pays nothing for it. "Off" means the
@@ -6,11 +7,14 @@
 // zero); it is not a constraint. Switching shear or stretch off therefore
 // removes a restoring force — the inextensible/unshearable limit is a
 // different model (see README, "Stiff rods").
-//
-// reads: nothing  writes: nothing
 #pragma once
 
-#include "kernels/math.h"
+// (terms_mask is also used in CUDA device code, kernels/cuda_check.cu)
+#if defined(__CUDACC__)
+#define MANYRODS_TERMS_HD __host__ __device__
+#else
+#define MANYRODS_TERMS_HD
+#endif
 
 namespace manyrods {
 
@@ -28,12 +32,12 @@ inline constexpr Terms kAllTerms{};
 
 // Terms as a bit mask (bit 0 shear … bit 6 loads), for places that cannot take
 // a class-type template argument (CUDA __global__ templates).
-MANYRODS_HD constexpr unsigned terms_mask(Terms t) {
+MANYRODS_TERMS_HD constexpr unsigned terms_mask(Terms t) {
   return unsigned(t.shear) | unsigned(t.stretch) << 1 | unsigned(t.bend) << 2 |
          unsigned(t.twist) << 3 | unsigned(t.kelvin_voigt) << 4 | unsigned(t.gravity) << 5 |
          unsigned(t.loads) << 6;
 }
-MANYRODS_HD constexpr Terms terms_from_mask(unsigned m) {
+MANYRODS_TERMS_HD constexpr Terms terms_from_mask(unsigned m) {
   return {bool(m & 1), bool(m & 2), bool(m & 4), bool(m & 8), bool(m & 16), bool(m & 32),
           bool(m & 64)};
 }

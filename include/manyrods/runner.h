@@ -1,5 +1,5 @@
-// host/runner.h — running a scene into an HDF5 file (the `manyrods run` and
-// `manyrods sweep` commands; host/h5io.h has the file layout).
+// include/manyrods/runner.h — running a scene into an HDF5 file (the `manyrods run` and
+// `manyrods sweep` commands; manyrods/h5io.h has the file layout).
 //
 // The run advances in chunks that end at the "sample points": every 64th
 // step, every output frame (output_interval rounded to whole steps) and the
@@ -22,8 +22,8 @@
 #include <utility>
 #include <vector>
 
-#include "host/h5io.h"
-#include "host/scene.h"
+#include "manyrods/h5io.h"
+#include "manyrods/scene.h"
 #include "manyrods/manyrods.h"
 
 namespace manyrods::scene {
@@ -52,6 +52,7 @@ struct RunOptions {
   double until = -1;      // stop at the first sample point at or after this time (< 0: never)
   double duration = -1;   // overrides [simulation] duration when > 0
   bool progress = false;  // progress line on stderr
+  bool profile = false;   // time each stage of the step (RunResult::stages)
   const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
   std::vector<Probe> probes;
   // Called before the file is closed (the sweep adds /sweep here).
@@ -66,6 +67,8 @@ struct RunResult {
   std::int64_t elements = 0;
   bool interrupted = false;  // SIGINT or --until before the end
   double wall_s = 0, element_steps_per_s = 0;
+  std::uint64_t state_hash = 0;  // of the final state (include/manyrods/batch.h state_hash)
+  StageTimes stages;             // with RunOptions::profile: thread-seconds per stage
   std::vector<ProbeRecord> probes;
 };
 

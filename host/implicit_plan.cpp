@@ -1,0 +1,47 @@
+// host/implicit_plan.cpp — the implicit-solve plan (host/implicit_plan.h).
+#include "host/implicit_plan.h"
+
+#include <algorithm>
+#include <utility>
+
+namespace manyrods {
+
+std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& rods, const Segment& seg,
+                                 int lanes, int buffer_cells, bool kelvin_voigt) {
+  plan.lanes = lanes;
+  const int first_rod = int(plan.rods.size()), first_group = int(plan.groups.size());
+  for (int i = seg.rod_begin; i < seg.rod_end; ++i)
+    if (needs_implicit_solve(rods[i], kelvin_voigt)) plan.rods.push_back(i);
+  const auto begin = plan.rods.begin() + first_rod;
+  if (lanes > 1)
+    std::sort(begin, plan.rods.end(), [&](int x, int y) {
+      const int ex = rods[x].elements, ey = rods[y].elements;
+      return ex != ey ? ex > ey : x < y;
+    });
+  const int n = int(plan.rods.size());
+  const int half_lanes = lanes >= 4 ? lanes / 2 : 1;
+  for (int a = first_rod; a < n;) {
+    const int cells = rods[plan.rods[a]].elements + 1;
+    const bool fits = lanes * (cells + 1) <= buffer_cells;
+    const bool fits_half = half_lanes > 1 && half_lanes * (cells + 1) <= buffer_cells;
+    const int count = fits ? std::min(lanes, n - a) : fits_half ? std::min(half_lanes, n - a) : 1;
+    plan.groups.push_back({a, count, !fits});
+    a += count;
+  }
+  return {first_group, int(plan.groups.size())};
+}
+
+void build_solve_plans(std::array<SolvePlan, 2>& plans, std::vector<Segment>& segments,
+                       const std::vector<RodInfo>& rods, int lanes, int buffer_cells) {
+  for (int kv = 0; kv < 2; ++kv) {
+    plans[kv] = SolvePlan{};
+    plans[kv].lanes = lanes;
+    for (Segment& seg : segments) {
+      const auto [g0, g1] = plan_segment(plans[kv], rods, seg, lanes, buffer_cells, kv == 1);
+      seg.groups_begin[kv] = g0;
+      seg.groups_end[kv] = g1;
+    }
+  }
+}
+
+}  // namespace manyrods

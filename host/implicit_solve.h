@@ -1,0 +1,134 @@
+// host/implicit_solve.h — the implicit stage of a step: the backward-Euler
+// solve (kernels/viscous_implicit.h, kernels/viscous_implicit_lanes.h) of
+// every rod that needs one — damped rods when the step has the Kelvin–Voigt
+// term, stiff rods (RodSpec::stiff_implicit) always. Undamped, non-stiff rods
+// pay nothing. The rods and their lane groups come from the batch's plan
+// (host/implicit_plan.h), built with the batch.
+#pragma once
+
+#include <omp.h>
+
+#include <tuple>
+
+#include "host/implicit_plan.h"
+#include "host/schedule.h"
+#include "kernels/viscous_implicit.h"
+#include "kernels/viscous_implicit_lanes.h"
+#include "kernels/views.h"
+#include "manyrods/batch.h"
+
+namespace manyrods {
+
+#if defined(__GNUC__)
+#define MANYRODS_NOINLINE __attribute__((noinline))
+#else
+#define MANYRODS_NOINLINE
+#endif
+
+namespace detail {
+
+// Driven roots: the solve runs on the velocities relative to the rigid motion
+// of the root (kernels/viscous_implicit.h rigid_shift). sign −1 keeps the
+// root's (v₀, ω_g) in `saved` and subtracts its rigid field; +1 adds it back.
+// Ω = Q_gᵀ ω_g and x₀ do not change in the solve.
+template <class T>
+void shift_driven_roots(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
+  const StateView<T> s = b.state_view();
+  for (int i = r.driven_begin; i < r.driven_end; ++i) {
+    const RodInfo& rod = b.rods[b.driven[i].rod];
+    if (!needs_implicit_solve(rod, kelvin_voigt)) continue;
+    T* saved = b.scratch.driven_root_velocity.data() + 6 * std::size_t(i);
+    const int k = rod.offset + 1;
+    vec3<T> root[2];
+    if (sign < T(0)) {
+      root[0] = load3(s.node_v, k);
+      root[1] = load3(s.elem_w, k - 1);
+      const T keep[6] = {root[0].x, root[0].y, root[0].z, root[1].x, root[1].y, root[1].z};
+      for (int c = 0; c < 6; ++c) saved[c] = keep[c];
+    } else {
+      root[0] = {saved[0], saved[1], saved[2]};
+      root[1] = {saved[3], saved[4], saved[5]};
+    }
+    const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, k - 1), root[1]);
+    rigid_shift(k, rod.elements + 1, sign, root[0], omega, load3(s.node_x, k), s);
+    const vec3<T> zero{T(0), T(0), T(0)};
+    store3(s.node_v, k, sign > T(0) ? root[0] : zero);
+    store3(s.elem_w, k - 1, sign > T(0) ? root[1] : zero);
+  }
+}
+
+}  // namespace detail
+
+// The implicit stage on the rods of segment r. kLanes = 0: the batch's plan
+// (kImplicitLanes<T> rods per lane group); another lane count (1: every rod
+// by the scalar viscous_implicit_rod) plans the segment on the fly, for
+// tests that compare the kernels. Lanes and scalar kernel agree to
+// round-off, not bit for bit (tests/test_implicit_lanes.cpp).
+//
+// `thread` picks the elimination buffer (reserve_implicit_scratch first);
+// every solve uses it from its start. With ex.threads > 1 (a segment stepped
+// by all threads) the groups are shared out, each thread using its own buffer.
+// reads: model, state  writes: state.node_v, elem_w (scratch: the thread's buffer)
+template <Terms kT, int kLanes = 0, class T>
+void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
+  constexpr int W = kLanes > 0 ? kLanes : kImplicitLanes<T>;
+  constexpr int kv = kT.kelvin_voigt ? 1 : 0;
+  const SolvePlan* plan = &b.solve_plan[kv];
+  int g0 = r.groups_begin[kv], g1 = r.groups_end[kv];
+  SolvePlan other;  // only for a lane count other than the batch's plan
+  if (plan->lanes != W) {
+    std::tie(g0, g1) = plan_segment(other, b.rods, r, W, b.scratch.visc_cells, kT.kelvin_voigt);
+    plan = &other;
+  }
+  if (g0 == g1) return;
+  const ModelView<T> m = b.model_view();
+  const StateView<T> s = b.state_view();
+  const bool driven = r.driven_end > r.driven_begin;  // (a scene without them skips both passes)
+  if (driven) detail::shift_driven_roots(b, r, kT.kelvin_voigt, T(-1));
+  // One compiled copy of the kernels for both branches below (not inlined
+  // twice: two copies may contract a·b + c into FMAs differently, and the
+  // results would then depend on the branch, i.e. on the thread count).
+  constexpr int W2 = W >= 4 ? W / 2 : 1;
+  auto solve = [&](int group, int t) MANYRODS_NOINLINE {
+    const SolveGroup& grp = plan->groups[group];
+    const int* rods = plan->rods.data() + grp.first;
+    const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
+    if (grp.count > 1) {
+      int first[W], cells[W];
+      T stiff_h[W];
+      for (int j = 0; j < W; ++j) {
+        const RodInfo& rod = b.rods[rods[j < grp.count ? j : grp.count - 1]];
+        first[j] = rod.offset + 1;
+        cells[j] = rod.elements + 1;
+        stiff_h[j] = rod.stiff_implicit ? h : T(0);
+      }
+      if constexpr (W2 > 1)
+        if (grp.half) {
+          viscous_implicit_lanes<kT, W2>(first, cells, h, stiff_h, m, s, sc);
+          return;
+        }
+      viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, m, s, sc);
+    } else {
+      const RodInfo& rod = b.rods[rods[0]];
+      viscous_implicit_rod<kT>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s, sc);
+    }
+  };
+  if (ex.threads > 1 && g1 - g0 > 1) {
+#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 1)
+    for (int g = g0; g < g1; ++g) solve(g, omp_get_thread_num());
+  } else {
+    for (int g = g0; g < g1; ++g) solve(g, thread);
+  }
+  if (driven) detail::shift_driven_roots(b, r, kT.kelvin_voigt, T(1));
+}
+
+// The implicit stage on the whole batch (every segment).
+template <Terms kT, int kLanes = 0, class T>
+void viscous_update(RodBatch<T>& b, T h, const Exec& ex) {
+  b.reserve_implicit_scratch(ex.threads);
+  for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
+    viscous_update<kT, kLanes>(b, h, e, r, thread);
+  });
+}
+
+}  // namespace manyrods

@@ -1,0 +1,54 @@
+// host/root_motion.h — the driven roots of a segment put on their motion for
+// one step or drift (include/manyrods/drive.h explains the scheme).
+#pragma once
+
+#include "kernels/views.h"
+#include "manyrods/batch.h"
+
+namespace manyrods {
+
+// The driven roots of segment r at the start of a step (Position Verlet) or
+// drift (PEFRL) [t, t + h]: node 0 at x(t) with the mean velocity
+// (x(t + h) − x(t))/h, the clamp frame (root ghost element) at Q(t) with the
+// angular velocity that turns it into Q(t + h), so that the drifts end
+// exactly at the pose of t + h (h < 0 for PEFRL's backward drifts). Each
+// segment evaluates the motions it uses. Computed in double, stored in T.
+// reads: driven roots, motions  writes: state at node 0 and the clamp frame of driven rods
+template <class T>
+void apply_root_motion(RodBatch<T>& b, const Segment& r, double t, double h) {
+  const StateView<T> s = b.state_view();
+  int last = -1;
+  RootStep st;
+  mat3<double> r0, r1;
+  vec3<double> c0, c1, omega;
+  auto mat = [](const Mat3& a) {
+    mat3<double> m;
+    for (int i = 0; i < 9; ++i) m.m[i] = a[i];
+    return m;
+  };
+  auto vec = [](const Vec3& a) { return vec3<double>{a[0], a[1], a[2]}; };
+  for (int i = r.driven_begin; i < r.driven_end; ++i) {
+    const DrivenRoot& d = b.driven[i];
+    if (d.motion != last) {
+      st = root_step(*b.motions[d.motion], t, h);
+      last = d.motion;
+      r0 = mat(st.start.rotation);
+      r1 = mat(st.end.rotation);
+      c0 = vec(st.start.translation);
+      c1 = vec(st.end.translation);
+      omega = vec(st.omega);
+    }
+    const int k = b.node_index(d.rod, 0), g = b.rods[d.rod].offset;  // node 0, clamp frame
+    const vec3<double> x0 = c0 + mul(r0, vec(d.x0)), x1 = c1 + mul(r1, vec(d.x0));
+    store3(s.node_x, k, vec3<T>{T(x0.x), T(x0.y), T(x0.z)});
+    const vec3<double> dx = x1 - x0;
+    store3(s.node_v, k, vec3<T>{T(dx.x / h), T(dx.y / h), T(dx.z / h)});
+    if constexpr (sizeof(T) == 4) store3(s.node_xc, k, vec3<T>{T(0), T(0), T(0)});
+    const mat3<double> q = mul_transpose(mat(d.q0), r0);  // Q(t) = Q₀ R(t)ᵀ
+    for (int j = 0; j < 9; ++j) s.elem_Q[j][g] = T(q.m[j]);
+    const vec3<double> w = mul(q, omega);  // material components: ω = Q(t) Ω
+    store3(s.elem_w, g, vec3<T>{T(w.x), T(w.y), T(w.z)});
+  }
+}
+
+}  // namespace manyrods

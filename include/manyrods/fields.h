@@ -1,0 +1,74 @@
+// include/manyrods/fields.h — the one list of a batch's structure-of-arrays
+// fields. Everything that has one entry per field is generated from it:
+//
+//   storage    Model / State / Scratch / Loads members    include/manyrods/batch.h
+//   views      ModelView, StateView, ScratchView, …         kernels/views.h
+//   allocation, fills, byte counts, view pointers         host/batch.cpp
+//   state copies (advance's replay)                        host/integrators.h
+//   checkpoints (HDF5 /checkpoint, restart)                host/h5io.cpp, host/runner.cpp
+//   the memory estimate of a scene                        host/scene.cpp
+//
+// Adding a field is one line here (and the kernel that reads or writes it).
+//
+// Each entry is X(name, components, fill, float_only, "shape, unit: meaning"):
+//   name        the member name in the storage struct and in the view; the
+//               prefix says its grid: node_ (n+1 per rod), elem_ (n per rod),
+//               vor_ (Voronoi points, the joints between elements);
+//   components  1 (one array) or 3 / 9 (that many arrays, one per component:
+//               a vector in x, y, z or a frame in row-major order);
+//   fill        the value of every entry at allocation, ghosts included, as an
+//               expression of the component index i (a frame fills with the
+//               identity: i % 4 == 0);
+//   float_only  1: allocated for float batches only (empty for double);
+//   doc         the array's shape and unit, and what it holds.
+// Every array is indexed by the slot index k (include/manyrods/batch.h "Slot
+// layout"); units are SI.
+#pragma once
+
+// Constant during a run (rest state, stiffness, damping, masses).
+#define MANYRODS_MODEL_FIELDS(X)                                                                  \
+  X(node_mass, 1, 0, 0, "[slots] kg: lumped node mass")                                          \
+  X(node_inv_mass, 1, 0, 0, "[slots] 1/kg: 0 for clamped and ghost nodes")                       \
+  X(elem_rest_length, 1, 1, 0, "[slots] m: rest length l̂")                                       \
+  X(elem_stiffness, 3, 0, 0, "[3][slots] N: κ1·G·A, κ2·G·A, E·A (C_F)")                           \
+  X(elem_rest_strain, 3, (i == 2), 0, "[3][slots] 1: V0 (e3 for a straight rod)")               \
+  X(elem_tau, 3, 0, 0, "[3][slots] s: τS, τS, τE (V_F = C_F·diag τ)")                             \
+  X(elem_inertia, 3, 0, 0, "[3][slots] kg·m: ρ·l̂·(I1, I2, I3)")                                   \
+  X(elem_inv_inertia, 3, 0, 0, "[3][slots] 1/(kg·m): 0 for ghost elements")                      \
+  X(vor_rest_length, 1, 1, 0, "[slots] m: Voronoi length D̂")                                     \
+  X(vor_stiffness, 3, 0, 0, "[3][slots] N·m²: E·I1, E·I2, G·J_T (C_M)")                           \
+  X(vor_rest_curvature, 3, 0, 0, "[3][slots] 1/m: U0")                                           \
+  X(vor_tau, 3, 0, 0, "[3][slots] s: τE, τE, τS (V_M = C_M·diag τ)")
+
+// The state: the only thing a checkpoint needs.
+#define MANYRODS_STATE_FIELDS(X)                                                                   \
+  X(node_x, 3, 0, 0, "[3][slots] m: node positions, lab frame")                                  \
+  X(node_v, 3, 0, 0, "[3][slots] m/s: node velocities, lab frame")                               \
+  X(elem_Q, 9, (i % 4 == 0), 0, "[9][slots] 1: frame, row-major, rows = directors d1, d2, d3")   \
+  X(elem_w, 3, 0, 0, "[3][slots] rad/s: angular velocity, material components")                  \
+  X(node_xc, 3, 0, 1,                                                                            \
+    "[3][slots] m: float only, the round-off of node_x carried to the next drift "               \
+    "(compensated summation, kernels/integrate.h kinematic_node)")
+
+// Derived each step from the state; each array names the kernel that writes it.
+#define MANYRODS_SCRATCH_FIELDS(X)                                                                 \
+  X(elem_force, 3, 0, 0, "[3][slots] N: Qᵀn, lab frame — element_stage")                         \
+  X(elem_couple, 3, 0, 0, "[3][slots] N·m: (Q e) × n — element_stage")                           \
+  X(vor_moment, 3, 0, 0, "[3][slots] N·m: m̃, the J-corrected moment — voronoi_stage")            \
+  X(vor_kxm, 3, 0, 0, "[3][slots] N·m: D̂ κ × m — voronoi_stage")
+
+// Dead external loads in the lab frame, set by the user between steps.
+#define MANYRODS_LOADS_FIELDS(X)                                                                   \
+  X(node_force, 3, 0, 0, "[3][slots] N: point force on a node")                                  \
+  X(elem_couple, 3, 0, 0, "[3][slots] N·m: couple on an element")
+
+// Counting helpers (for byte estimates): arrays of a group for a batch of
+// this precision.
+#define MANYRODS_FIELD_ARRAYS(name, n, fill, float_only, doc) +(float_only ? (is_float ? n : 0) : n)
+namespace manyrods::fields {
+constexpr int model_arrays(bool is_float = false) { return 0 MANYRODS_MODEL_FIELDS(MANYRODS_FIELD_ARRAYS); }
+constexpr int state_arrays(bool is_float) { return 0 MANYRODS_STATE_FIELDS(MANYRODS_FIELD_ARRAYS); }
+constexpr int scratch_arrays(bool is_float = false) { return 0 MANYRODS_SCRATCH_FIELDS(MANYRODS_FIELD_ARRAYS); }
+constexpr int loads_arrays(bool is_float = false) { return 0 MANYRODS_LOADS_FIELDS(MANYRODS_FIELD_ARRAYS); }
+}  // namespace manyrods::fields
+#undef MANYRODS_FIELD_ARRAYS

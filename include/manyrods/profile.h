@@ -1,0 +1,57 @@
+// include/manyrods/profile.h — where a step's time goes: the wall time of
+// each stage, summed over the calls and the threads that ran it.
+//
+// Pass a Profile in Exec::profile to step, step_n, step_pefrl or advance;
+// each stage then reads a steady clock before and after it runs on a segment
+// and adds the difference to the slot of the thread that ran it. Without a
+// profile (the default) a stage costs one branch more. With threads stepping
+// segments in parallel the times are thread-seconds: their total is the
+// threads' busy time, not the wall time of the call.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace manyrods {
+
+// The stages of a step, in the order docs/architecture.md "The step as
+// stages" lists them.
+enum class Stage {
+  root_motion,     // driven roots put on their motion (host/root_motion.h)
+  drift,           // x += h v, Q ← exp(−h ω) Q (kernels/integrate.h)
+  resultants,      // strains and resultants (kernels/strains.h, resultants.h, internal_forces.h)
+  kick,            // v += h m⁻¹ F, ω += h J⁻¹ C (kernels/integrate.h)
+  implicit_solve,  // per-rod backward-Euler solve (kernels/viscous_implicit*.h)
+  renormalize,     // float frames back to orthonormal (kernels/integrate.h)
+  count
+};
+inline constexpr int kStageCount = int(Stage::count);
+
+// The stage's name as `manyrods run --profile` and the benchmarks print it.
+const char* stage_name(Stage s);
+
+struct StageTimes {
+  std::array<double, kStageCount> seconds{};
+  std::array<std::int64_t, kStageCount> calls{};
+  double total() const;
+  StageTimes& operator+=(const StageTimes& o);
+};
+
+class Profile {
+ public:
+  // Slots for `threads` threads (kept if there are already as many).
+  void reserve(int threads);
+  void add(int thread, Stage s, double seconds) {
+    per_thread_[std::size_t(thread)].seconds[std::size_t(s)] += seconds;
+    per_thread_[std::size_t(thread)].calls[std::size_t(s)] += 1;
+  }
+  // Summed over the threads.
+  StageTimes total() const;
+  void clear();
+
+ private:
+  std::vector<StageTimes> per_thread_;
+};
+
+}  // namespace manyrods
