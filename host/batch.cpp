@@ -370,32 +370,51 @@ ImplicitScratchView<T> RodBatch<T>::implicit_scratch_view(int thread, int cell_o
   return v;
 }
 
-template <class T>
-RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) {
-  RodBatch<T> b;
-  b.set_gravity(gravity);
-  std::int64_t slots = 0, elements = 0;
-  // Segments (batch.h): rods are packed into 64-aligned runs of at most
-  // kSegmentSlots slots, with at least one spare slot at the end of each (the
-  // tip ghost element reads the node after it), so that no kernel of one
-  // segment touches a slot another segment writes. Stiff and other rods never
-  // share a segment (their kicks differ, kernels/integrate.h).
+namespace {
+
+// A rod's description checked and resolved (material, section, damping);
+// errors name the rod.
+RodInfo resolve_rod(const RodSpec& s, int r) {
+  RodInfo info;
+  info.name = s.name;
+  info.elements = s.elements();
+  info.clamped_root = s.clamped_root;
+  info.stiff_implicit = s.stiff_implicit;
+  info.driven = s.root_motion != nullptr;
+  try {
+    validate_rod(s);
+    info.elastic = resolve_material(s.material);
+    info.section = section_properties(s.section, info.elastic.nu);
+    info.tau = resolve_damping(s.damping, info.elastic);
+    info.damped = info.tau.shear > 0 || info.tau.extension > 0;
+  } catch (const InputError& e) {
+    throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
+  }
+  return info;
+}
+
+// Segments (batch.h): rods are packed into 64-aligned runs of at most
+// kSegmentSlots slots, with at least one spare slot at the end of each (the
+// tip ghost element reads the node after it), so that no kernel of one
+// segment touches a slot another segment writes. Stiff and other rods never
+// share a segment (their kicks differ, kernels/integrate.h). Fills rods and
+// segments; returns the slot count.
+std::int64_t lay_out(const std::vector<RodSpec>& specs, std::vector<RodInfo>& rods, std::vector<Segment>& segments) {
+  std::int64_t slots = 0;
   auto round_up = [](std::int64_t x) { return (x + kGuard - 1) / kGuard * kGuard; };
   Segment seg;
   auto close_segment = [&](int next_rod) {
     if (next_rod > seg.rod_begin) {
       seg.rod_end = next_rod;
       seg.end = static_cast<int>(round_up(slots + 1));
-      b.segments.push_back(seg);
+      segments.push_back(seg);
       slots = seg.end;
     }
     seg = Segment{static_cast<int>(slots), 0, next_rod, 0, true};
   };
   for (std::size_t r = 0; r < specs.size(); ++r) {
     const RodSpec& s = specs[r];
-    RodInfo info;
-    info.name = s.name;
-    info.elements = s.elements();
+    RodInfo info = resolve_rod(s, int(r));
     const std::int64_t size = std::int64_t(std::max(info.elements, 0)) + 2;
     const bool big = size + 1 > kSegmentSlots;
     const bool other_kind = int(r) > seg.rod_begin && seg.stiff != s.stiff_implicit;
@@ -403,28 +422,20 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     if (big) seg.fused = false;
     seg.stiff = s.stiff_implicit;
     info.offset = static_cast<int>(slots);
-    info.clamped_root = s.clamped_root;
-    info.stiff_implicit = s.stiff_implicit;
-    info.driven = s.root_motion != nullptr;
-    b.any_stiff_ = b.any_stiff_ || s.stiff_implicit;
-    try {
-      validate_rod(s);
-      info.elastic = resolve_material(s.material);
-      info.section = section_properties(s.section, info.elastic.nu);
-      info.tau = resolve_damping(s.damping, info.elastic);
-      info.damped = info.tau.shear > 0 || info.tau.extension > 0;
-    } catch (const InputError& e) {
-      throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
-    }
     slots += info.elements + 2;
-    elements += info.elements;
     if (slots > (std::int64_t(1) << 31) - 4 * kSegmentSlots)
       fail("batch: " + std::to_string(slots) + " slots exceed the 32-bit index range");
-    b.rods.push_back(info);
+    rods.push_back(std::move(info));
     if (big) close_segment(int(r) + 1);
   }
   close_segment(int(specs.size()));
-  // driven roots: one entry per rod, one motion per distinct pointer
+  return segments.empty() ? kGuard : slots;
+}
+
+// Driven roots: one entry per rod, one motion per distinct pointer; each
+// segment's range of them.
+template <class T>
+void collect_driven(RodBatch<T>& b, const std::vector<RodSpec>& specs) {
   std::unordered_map<const RootMotion*, int> motion_index;
   for (std::size_t r = 0; r < specs.size(); ++r) {
     const RodSpec& s = specs[r];
@@ -438,93 +449,132 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
     seg.driven_begin = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_begin, by_rod) - b.driven.begin());
     seg.driven_end = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_end, by_rod) - b.driven.begin());
   }
-  if (b.segments.empty()) slots = kGuard;
+}
+
+// One rod's given geometry: element lengths and frames.
+struct RodGeometry {
+  std::vector<double> length;
+  std::vector<EM3> frame;
+  explicit RodGeometry(const RodSpec& s) : length(std::size_t(s.elements())), frame(std::size_t(s.elements())) {
+    for (int e = 0; e < s.elements(); ++e) {
+      length[e] = (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])).norm();
+      frame[e] = to_eigen(s.frames[e]);
+    }
+  }
+};
+
+// Nodes: lumped masses (a clamped root has no inverse mass), positions and
+// velocities, and the still root ghost node.
+template <class T>
+void fill_nodes(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const RodGeometry& g) {
+  const int n = info.elements, o = info.offset;
+  const double rho = info.elastic.density, area = info.section.area;
+  for (int j = 0; j <= n; ++j) {
+    const int k = o + 1 + j;
+    double mass = 0;
+    if (j > 0) mass += 0.5 * rho * area * g.length[j - 1];
+    if (j < n) mass += 0.5 * rho * area * g.length[j];
+    b.model.node_mass[k] = T(mass);
+    b.model.node_inv_mass[k] = (j == 0 && s.clamped_root) ? T(0) : T(1 / mass);
+    for (int d = 0; d < 3; ++d) {
+      b.state.node_x[d][k] = T(s.nodes[j][d]);
+      b.state.node_v[d][k] = (s.velocities.empty() || (j == 0 && s.clamped_root)) ? T(0) : T(s.velocities[j][d]);
+    }
+  }
+  for (int d = 0; d < 3; ++d) b.state.node_x[d][o] = T(s.nodes[0][d]);  // root ghost node: finite, still
+}
+
+// Elements: rest length and strain, C_F, retardation times, inertia, frames
+// and angular velocities; the root ghost holds the clamp frame, the tip
+// ghost a copy of the last frame.
+template <class T>
+void fill_elements(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const RodGeometry& g) {
+  const int n = info.elements, o = info.offset;
+  const ElasticConstants& c = info.elastic;
+  const SectionProperties& p = info.section;
+  const double f = s.shear_stretch_scale;
+  const Vec3 cf = {f * p.shear_factor1 * c.G * p.area, f * p.shear_factor2 * c.G * p.area, f * c.E * p.area};
+  const Vec3 J = {p.I1, p.I2, p.I3}, tau = {info.tau.shear, info.tau.shear, info.tau.extension};
+  for (int e = 0; e < n; ++e) {
+    const int k = o + 1 + e;
+    const double len = g.length[e];
+    b.model.elem_rest_length[k] = T(len);
+    const E3 v0 = s.rest_strain.empty() ? E3(g.frame[e] * (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])) / len)
+                                        : to_eigen(s.rest_strain[e]);
+    for (int d = 0; d < 3; ++d) {
+      b.model.elem_stiffness[d][k] = T(cf[d]);
+      b.model.elem_rest_strain[d][k] = T(v0[d]);
+      b.model.elem_tau[d][k] = T(tau[d]);
+      b.model.elem_inertia[d][k] = T(c.density * len * J[d]);
+      b.model.elem_inv_inertia[d][k] = T(1 / (c.density * len * J[d]));
+      b.state.elem_w[d][k] = s.angular_velocities.empty() ? T(0) : T(s.angular_velocities[e][d]);
+    }
+    for (int i = 0; i < 9; ++i) b.state.elem_Q[i][k] = T(s.frames[e][i]);
+  }
+  const Mat3 root = s.root_frame ? *s.root_frame : s.frames[0];
+  for (int i = 0; i < 9; ++i) {
+    b.state.elem_Q[i][o] = T(root[i]);
+    b.state.elem_Q[i][o + n + 1] = T(s.frames[n - 1][i]);
+  }
+}
+
+// Voronoi points: interior j joins elements j and j+1 (slot o+2+j); the root
+// one ties element 0 to the clamp frame of a clamped rod (zero stiffness for
+// a free root); rest curvature from the given frames unless given.
+template <class T>
+void fill_joints(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const RodGeometry& g) {
+  const int n = info.elements, o = info.offset;
+  const ElasticConstants& c = info.elastic;
+  const Vec3 cm = {c.E * info.section.I1, c.E * info.section.I2, c.G * info.section.torsion_constant};
+  const Vec3 tau = {info.tau.extension, info.tau.extension, info.tau.shear};
+  auto set_vor = [&](int k, double d_hat, const E3& u0) {
+    b.model.vor_rest_length[k] = T(d_hat);
+    for (int d = 0; d < 3; ++d) {
+      b.model.vor_stiffness[d][k] = T(cm[d]);
+      b.model.vor_rest_curvature[d][k] = T(u0[d]);
+      b.model.vor_tau[d][k] = T(tau[d]);
+    }
+  };
+  for (int j = 0; j + 1 < n; ++j) {
+    const double d_hat = 0.5 * (g.length[j] + g.length[j + 1]);
+    const E3 u0 = s.rest_curvature.empty() ? discrete_curvature(g.frame[j], g.frame[j + 1], d_hat)
+                                           : to_eigen(s.rest_curvature[j]);
+    set_vor(o + 2 + j, d_hat, u0);
+  }
+  if (s.clamped_root) {
+    const double d_hat = 0.5 * g.length[0];
+    const Mat3 root = s.root_frame ? *s.root_frame : s.frames[0];
+    set_vor(o + 1, d_hat, discrete_curvature(to_eigen(root), g.frame[0], d_hat));
+  } else {
+    b.model.vor_rest_length[o + 1] = T(0.5 * g.length[0]);
+  }
+  b.model.vor_rest_length[o + n + 1] = T(0.5 * g.length[n - 1]);
+}
+
+}  // namespace
+
+template <class T>
+RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) {
+  RodBatch<T> b;
+  b.set_gravity(gravity);
+  const std::int64_t slots = lay_out(specs, b.rods, b.segments);
+  std::int64_t elements = 0;
+  for (const RodInfo& r : b.rods) {
+    elements += r.elements;
+    b.any_stiff_ = b.any_stiff_ || r.stiff_implicit;
+  }
+  collect_driven(b, specs);
   b.allocate(static_cast<int>(slots), elements);
   // the implicit-solve plan, for the buffer reserve_implicit_scratch gives
   // (a segment's worth of cells per thread)
   int buffer_cells = 0;
   for (const Segment& seg : b.segments) buffer_cells = std::max(buffer_cells, seg.end - seg.begin);
   build_solve_plans(b.solve_plan, b.segments, b.rods, kImplicitLanes<T>, buffer_cells);
-
-  Model<T>& m = b.model;
-  State<T>& st = b.state;
   for (std::size_t r = 0; r < specs.size(); ++r) {
-    const RodSpec& s = specs[r];
-    const RodInfo& info = b.rods[r];
-    const int n = info.elements, o = info.offset;
-    const ElasticConstants& c = info.elastic;
-    const SectionProperties& p = info.section;
-    const double tS = info.tau.shear, tE = info.tau.extension;
-    const double f = s.shear_stretch_scale;
-    const Vec3 cf = {f * p.shear_factor1 * c.G * p.area, f * p.shear_factor2 * c.G * p.area, f * c.E * p.area};
-    const Vec3 cm = {c.E * p.I1, c.E * p.I2, c.G * p.torsion_constant};
-    std::vector<double> len(n);
-    std::vector<EM3> q(n);
-    for (int e = 0; e < n; ++e) {
-      len[e] = (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])).norm();
-      q[e] = to_eigen(s.frames[e]);
-    }
-    // nodes
-    for (int j = 0; j <= n; ++j) {
-      const int k = o + 1 + j;
-      double mass = 0;
-      if (j > 0) mass += 0.5 * c.density * p.area * len[j - 1];
-      if (j < n) mass += 0.5 * c.density * p.area * len[j];
-      m.node_mass[k] = T(mass);
-      m.node_inv_mass[k] = (j == 0 && s.clamped_root) ? T(0) : T(1 / mass);
-      for (int d = 0; d < 3; ++d) {
-        st.node_x[d][k] = T(s.nodes[j][d]);
-        st.node_v[d][k] = (s.velocities.empty() || (j == 0 && s.clamped_root)) ? T(0) : T(s.velocities[j][d]);
-      }
-    }
-    for (int d = 0; d < 3; ++d) st.node_x[d][o] = T(s.nodes[0][d]);  // root ghost node: finite, still
-    // elements
-    for (int e = 0; e < n; ++e) {
-      const int k = o + 1 + e;
-      m.elem_rest_length[k] = T(len[e]);
-      const E3 v0 = s.rest_strain.empty()
-                        ? E3(q[e] * (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])) / len[e])
-                        : to_eigen(s.rest_strain[e]);
-      const Vec3 J = {p.I1, p.I2, p.I3}, tau = {tS, tS, tE};
-      for (int d = 0; d < 3; ++d) {
-        m.elem_stiffness[d][k] = T(cf[d]);
-        m.elem_rest_strain[d][k] = T(v0[d]);
-        m.elem_tau[d][k] = T(tau[d]);
-        m.elem_inertia[d][k] = T(c.density * len[e] * J[d]);
-        m.elem_inv_inertia[d][k] = T(1 / (c.density * len[e] * J[d]));
-        st.elem_w[d][k] = s.angular_velocities.empty() ? T(0) : T(s.angular_velocities[e][d]);
-      }
-      for (int i = 0; i < 9; ++i) st.elem_Q[i][k] = T(s.frames[e][i]);
-    }
-    // root ghost element: the clamp frame; tip ghost: a copy of the last frame
-    const Mat3 root = s.root_frame ? *s.root_frame : s.frames[0];
-    for (int i = 0; i < 9; ++i) {
-      st.elem_Q[i][o] = T(root[i]);
-      st.elem_Q[i][o + n + 1] = T(s.frames[n - 1][i]);
-    }
-    // Voronoi points: interior j joins elements j and j+1 (slot o+2+j)
-    auto set_vor = [&](int k, double d_hat, const E3& u0) {
-      m.vor_rest_length[k] = T(d_hat);
-      const Vec3 tau = {tE, tE, tS};
-      for (int d = 0; d < 3; ++d) {
-        m.vor_stiffness[d][k] = T(cm[d]);
-        m.vor_rest_curvature[d][k] = T(u0[d]);
-        m.vor_tau[d][k] = T(tau[d]);
-      }
-    };
-    for (int j = 0; j + 1 < n; ++j) {
-      const double d_hat = 0.5 * (len[j] + len[j + 1]);
-      const E3 u0 = s.rest_curvature.empty() ? discrete_curvature(q[j], q[j + 1], d_hat)
-                                             : to_eigen(s.rest_curvature[j]);
-      set_vor(o + 2 + j, d_hat, u0);
-    }
-    if (s.clamped_root) {
-      const double d_hat = 0.5 * len[0];
-      set_vor(o + 1, d_hat, discrete_curvature(to_eigen(root), q[0], d_hat));
-    } else {
-      m.vor_rest_length[o + 1] = T(0.5 * len[0]);
-    }
-    m.vor_rest_length[o + n + 1] = T(0.5 * len[n - 1]);
+    const RodGeometry g(specs[r]);
+    fill_nodes(b, specs[r], b.rods[r], g);
+    fill_elements(b, specs[r], b.rods[r], g);
+    fill_joints(b, specs[r], b.rods[r], g);
   }
   return b;
 }

@@ -39,7 +39,7 @@ void apply_root_motion(RodBatch<T>& b, const Segment& r, double t, double h) {
       omega = vec(st.omega);
     }
     const int k = b.node_index(d.rod, 0), g = b.rods[d.rod].offset;  // node 0, clamp frame
-    const vec3<double> x0 = c0 + mul(r0, vec(d.x0)), x1 = c1 + mul(r1, vec(d.x0));
+    const vec3<double> x0 = mul_add(r0, vec(d.x0), c0), x1 = mul_add(r1, vec(d.x0), c1);
     store3(s.node_x, k, vec3<T>{T(x0.x), T(x0.y), T(x0.z)});
     const vec3<double> dx = x1 - x0;
     store3(s.node_v, k, vec3<T>{T(dx.x / h), T(dx.y / h), T(dx.z / h)});

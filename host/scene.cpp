@@ -622,18 +622,135 @@ std::uint64_t bytes_for(std::int64_t slots, std::int64_t elements, Precision p) 
   return std::uint64_t(slots) * (arrays * t + 4) + std::uint64_t(elements) * 128;
 }
 
-}  // namespace
+// A [[rods]] group as parsed, before its rods are expanded.
+struct Pending {
+  RodGroup g;
+  Placement place;
+  Vec3 start, direction, normal;
+  double length;
+  int elements;
+  Vec3 u0;
+  bool curved, clamped, stiff = false;
+  double scale;
+  Section section;
+  Material material;
+  Damping damping;
+  const toml::table* table;
+  std::shared_ptr<const RootMotion> motion;  // driven root: shared by the group's rods
+};
 
-Scene parse_scene(std::string_view text, const std::string& source, const std::vector<Override>& overrides) {
-  Ctx ctx{source, {}};
-  toml::table root;
+toml::table parse_toml(std::string_view text, const std::string& source) {
   try {
-    root = toml::parse(text, source);
+    return toml::parse(text, source);
   } catch (const toml::parse_error& e) {
     const auto& b = e.source().begin;
     throw SceneError(source + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) +
                      ": TOML syntax error: " + std::string(e.description()));
   }
+}
+
+// Memory and index range before anything large is allocated.
+void check_size(const std::string& source, std::int64_t slots, std::int64_t elements, Precision precision) {
+  if (slots + 64 > std::int64_t(std::numeric_limits<int>::max()))
+    throw SceneError(source + ": the scene has " + std::to_string(elements) +
+                     " elements in all; a batch holds at most about 2.1e9 slots (int index)");
+  const std::uint64_t need = bytes_for(slots, elements, precision);
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
+    throw SceneError(source + ": the scene needs about " + num(double(need) / 1e9) + " GB (" +
+                     std::to_string(elements) + " elements), more than this machine's " +
+                     num(double(pages) * double(page) / 1e9) + " GB of memory");
+}
+
+// The root (free, clamped or driven) and the tip loads of a group.
+void parse_group_ends(const Table& g, Pending& p) {
+  const Root root = parse_root(g);
+  p.clamped = root.clamped;
+  p.motion = root.motion;
+  p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
+  if (g.has("initial_tip_force")) {
+    if (!p.clamped)
+      g.fail("initial_tip_force", "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
+    p.g.has_initial_tip_force = true;
+    p.g.initial_tip_force = g.vec3("initial_tip_force");
+  }
+}
+
+// One [[rods]] table, every key validated in the order of docs/scenes.md;
+// the group's material and damping resolved (so that a library InputError
+// names this group). The placement is made by the caller after the size
+// check.
+Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const Simulation& sim) {
+  Pending p;
+  p.table = &gt;
+  p.g.name = g.has("name") ? g.text("name") : "rods." + std::to_string(gi);
+  p.g.line = int(gt.source().begin.line);
+  p.g.count = int(g.has("count") ? g.integer("count", 1, std::numeric_limits<int>::max()) : 1);
+  p.elements = int(g.integer("elements", 1, 1 << 30));
+  p.length = g.positive("length");
+  p.start = g.vec3("start", {0, 0, 0});
+  p.direction = g.nonzero_vec3("direction", {0, 0, 1});
+  p.normal = g.nonzero_vec3("normal", {1, 0, 0});
+  if (to_e(p.direction).normalized().cross(to_e(p.normal).normalized()).norm() < 1e-9)
+    g.fail(g.has("normal") ? "normal" : "direction", "normal must not be parallel to direction");
+  p.section = parse_section(g, &p.g.width);
+  p.material = parse_material(g);
+  p.damping = parse_damping(g);
+  p.u0 = g.vec3("rest_curvature", {0, 0, 0});
+  p.curved = to_e(p.u0).norm() > 0;
+  parse_group_ends(g, p);
+  p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
+  p.stiff = g.boolean("stiff", false);
+  if (p.stiff && sim.integrator != Integrator::position_verlet)
+    g.fail("stiff", "stiff rods (shear, stretch and twist implicit) need integrator = \"position_verlet\"");
+  if (g.has("terms")) {
+    const Table t = g.sub("terms", {"shear", "stretch", "bend", "twist", "kelvin_voigt", "gravity"});
+    p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true),      t.boolean("bend", true),
+                 t.boolean("twist", true), t.boolean("kelvin_voigt", true), t.boolean("gravity", true)};
+  }
+  try {
+    const ElasticConstants c = resolve_material(p.material);
+    (void)section_properties(p.section, c.nu);
+    (void)resolve_damping(p.damping, c);
+  } catch (const InputError& e) {
+    g.fail(g.has("damping") ? "damping" : "material", e.what());
+  }
+  return p;
+}
+
+// The group's rods, appended to the scene.
+void expand_group(Scene& sc, Pending& p, std::size_t gi) {
+  p.g.first_rod = int(sc.rods.size());
+  for (int i = 0; i < p.g.count; ++i) {
+    RodSpec r;
+    try {
+      r = p.curved ? curved_rod(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length, p.elements,
+                                p.u0)
+                   : RodSpec::straight(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length,
+                                       p.elements);
+    } catch (const InputError& e) {
+      throw SceneError(sc.source + ":" + std::to_string(p.g.line) + ": rods." + std::to_string(gi) + " rod " +
+                       std::to_string(i) + ": " + e.what());
+    }
+    r.name = p.g.name + "[" + std::to_string(i) + "]";
+    r.section = p.section;
+    r.material = p.material;
+    r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
+    r.shear_stretch_scale = p.scale;
+    r.clamped_root = p.clamped;
+    r.root_motion = p.motion;
+    r.stiff_implicit = p.stiff;
+    sc.rods.push_back(std::move(r));
+    sc.rod_group.push_back(int(gi));
+  }
+  sc.groups.push_back(p.g);
+}
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::string& source, const std::vector<Override>& overrides) {
+  Ctx ctx{source, {}};
+  toml::table root = parse_toml(text, source);
   for (const Override& o : overrides) apply_override(root, o, ctx);
 
   Scene sc;
@@ -650,32 +767,6 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   if (!groups || groups->empty() || !groups->is_array_of_tables())
     ctx.fail(*rn, "rods", "must be one or more [[rods]] tables");
 
-  struct Pending {
-    RodGroup g;
-    Placement place;
-    double length;
-    int elements;
-    Vec3 u0;
-    bool curved, clamped, stiff = false;
-    double scale;
-    Section section;
-    Material material;
-    Damping damping;
-    const toml::table* table;
-    std::shared_ptr<const RootMotion> motion;  // driven root: shared by the group's rods
-  };
-  // Memory and index range before anything large is allocated.
-  auto check_size = [&](std::int64_t slots, std::int64_t elements) {
-    if (slots + 64 > std::int64_t(std::numeric_limits<int>::max()))
-      throw SceneError(source + ": the scene has " + std::to_string(elements) +
-                       " elements in all; a batch holds at most about 2.1e9 slots (int index)");
-    const std::uint64_t need = bytes_for(slots, elements, sc.sim.precision);
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-    if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
-      throw SceneError(source + ": the scene needs about " + num(double(need) / 1e9) + " GB (" +
-                       std::to_string(elements) + " elements), more than this machine's " +
-                       num(double(pages) * double(page) / 1e9) + " GB of memory");
-  };
   std::vector<Pending> pending;
   std::int64_t slots = 0, elements = 0;
   for (std::size_t gi = 0; gi < groups->size(); ++gi) {
@@ -684,87 +775,14 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
                   {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
                    "section", "material", "damping", "rest_curvature", "root", "tip_force",
                    "initial_tip_force", "terms", "shear_stretch_scale", "stiff"});
-    Pending p;
-    p.table = &gt;
-    p.g.name = g.has("name") ? g.text("name") : "rods." + std::to_string(gi);
-    p.g.line = int(gt.source().begin.line);
-    p.g.count = int(g.has("count") ? g.integer("count", 1, std::numeric_limits<int>::max()) : 1);
-    p.elements = int(g.integer("elements", 1, 1 << 30));
-    p.length = g.positive("length");
-    const Vec3 start = g.vec3("start", {0, 0, 0});
-    const Vec3 direction = g.nonzero_vec3("direction", {0, 0, 1});
-    const Vec3 normal = g.nonzero_vec3("normal", {1, 0, 0});
-    if (to_e(direction).normalized().cross(to_e(normal).normalized()).norm() < 1e-9)
-      g.fail(g.has("normal") ? "normal" : "direction", "normal must not be parallel to direction");
-    p.section = parse_section(g, &p.g.width);
-    p.material = parse_material(g);
-    p.damping = parse_damping(g);
-    p.u0 = g.vec3("rest_curvature", {0, 0, 0});
-    p.curved = to_e(p.u0).norm() > 0;
-    {
-      const Root root = parse_root(g);
-      p.clamped = root.clamped;
-      p.motion = root.motion;
-    }
-    p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
-    if (g.has("initial_tip_force")) {
-      if (!p.clamped)
-        g.fail("initial_tip_force",
-               "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
-      p.g.has_initial_tip_force = true;
-      p.g.initial_tip_force = g.vec3("initial_tip_force");
-    }
-    p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
-    p.stiff = g.boolean("stiff", false);
-    if (p.stiff && sc.sim.integrator != Integrator::position_verlet)
-      g.fail("stiff", "stiff rods (shear, stretch and twist implicit) need integrator = \"position_verlet\"");
-    if (g.has("terms")) {
-      const Table t = g.sub("terms", {"shear", "stretch", "bend", "twist", "kelvin_voigt", "gravity"});
-      p.g.terms = {t.boolean("shear", true), t.boolean("stretch", true),      t.boolean("bend", true),
-                   t.boolean("twist", true), t.boolean("kelvin_voigt", true), t.boolean("gravity", true)};
-    }
-    // resolve material and damping now, so that a library InputError names this group
-    try {
-      const ElasticConstants c = resolve_material(p.material);
-      (void)section_properties(p.section, c.nu);
-      (void)resolve_damping(p.damping, c);
-    } catch (const InputError& e) {
-      const char* k = g.has("damping") ? "damping" : "material";
-      g.fail(k, e.what());
-    }
+    Pending p = parse_group(g, gt, gi, sc.sim);
     slots += std::int64_t(p.g.count) * (p.elements + 2);
     elements += std::int64_t(p.g.count) * p.elements;
-    check_size(slots, elements);  // before the placement allocates per-rod vectors
-    p.place = parse_placement(g, p.g.count, start, direction, normal);
+    check_size(source, slots, elements, sc.sim.precision);  // before the placement allocates per-rod vectors
+    p.place = parse_placement(g, p.g.count, p.start, p.direction, p.normal);
     pending.push_back(std::move(p));
   }
-  for (std::size_t gi = 0; gi < pending.size(); ++gi) {
-    Pending& p = pending[gi];
-    p.g.first_rod = int(sc.rods.size());
-    for (int i = 0; i < p.g.count; ++i) {
-      RodSpec r;
-      try {
-        r = p.curved ? curved_rod(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length,
-                                  p.elements, p.u0)
-                     : RodSpec::straight(p.place.starts[i], p.place.directions[i], p.place.normals[i],
-                                         p.length, p.elements);
-      } catch (const InputError& e) {
-        throw SceneError(source + ":" + std::to_string(p.g.line) + ": rods." + std::to_string(gi) + " rod " +
-                         std::to_string(i) + ": " + e.what());
-      }
-      r.name = p.g.name + "[" + std::to_string(i) + "]";
-      r.section = p.section;
-      r.material = p.material;
-      r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
-      r.shear_stretch_scale = p.scale;
-      r.clamped_root = p.clamped;
-      r.root_motion = p.motion;
-      r.stiff_implicit = p.stiff;
-      sc.rods.push_back(std::move(r));
-      sc.rod_group.push_back(int(gi));
-    }
-    sc.groups.push_back(p.g);
-  }
+  for (std::size_t gi = 0; gi < pending.size(); ++gi) expand_group(sc, pending[gi], gi);
   return sc;
 }
 

@@ -93,6 +93,14 @@ MANYRODS_HD inline vec3<T> mul(const mat3<T>& q, vec3<T> a) {
           q.m[3] * a.x + q.m[4] * a.y + q.m[5] * a.z,
           q.m[6] * a.x + q.m[7] * a.y + q.m[8] * a.z};
 }
+// t + Q a, summed from t (the order in which a rigid motion p ↦ R p + c is
+// applied to a point; host/root_motion.h)
+template <class T>
+MANYRODS_HD inline vec3<T> mul_add(const mat3<T>& q, vec3<T> a, vec3<T> t) {
+  return {t.x + q.m[0] * a.x + q.m[1] * a.y + q.m[2] * a.z,
+          t.y + q.m[3] * a.x + q.m[4] * a.y + q.m[5] * a.z,
+          t.z + q.m[6] * a.x + q.m[7] * a.y + q.m[8] * a.z};
+}
 // Qᵀ a
 template <class T>
 MANYRODS_HD inline vec3<T> mul_transpose(const mat3<T>& q, vec3<T> a) {

@@ -147,4 +147,4 @@ TEST_P(ElasticaCase, MatchesReferenceAtSecondOrder) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(CASES1b, ElasticaCase, ::testing::ValuesIn(kTable));
+INSTANTIATE_TEST_SUITE_P(Case1b, ElasticaCase, ::testing::ValuesIn(kTable));
