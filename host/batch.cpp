@@ -212,7 +212,6 @@ void RodBatch<T>::allocate(int slots, std::int64_t elements) {
 #undef MANYRODS_ALLOCATE_LOADS
 #undef MANYRODS_ALLOCATE
   scratch.flags.resize(S, 0);
-  scratch.driven_root_velocity.assign(6 * driven.size(), T(0));
 }
 
 template <class T>
@@ -449,6 +448,7 @@ void collect_driven(RodBatch<T>& b, const std::vector<RodSpec>& specs) {
     seg.driven_begin = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_begin, by_rod) - b.driven.begin());
     seg.driven_end = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_end, by_rod) - b.driven.begin());
   }
+  b.scratch.driven_root_velocity.assign(6 * b.driven.size(), T(0));
 }
 
 // One rod's given geometry: element lengths and frames.
@@ -594,6 +594,8 @@ std::uint64_t state_hash(const RodBatch<T>& b) {
         mix(b.state.node_x[d][k]);
         mix(b.state.node_v[d][k]);
       }
+      if constexpr (sizeof(T) == 4)  // float: the positions' carried round-off too
+        for (int d = 0; d < 3; ++d) mix(b.state.node_xc[d][k]);
     }
     for (int e = 0; e < b.elements(r); ++e) {
       const int k = b.elem_index(r, e);

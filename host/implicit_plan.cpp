@@ -9,6 +9,7 @@ namespace manyrods {
 std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& rods, const Segment& seg,
                                  int lanes, int buffer_cells, bool kelvin_voigt) {
   plan.lanes = lanes;
+  plan.buffer_cells = buffer_cells;
   const int first_rod = int(plan.rods.size()), first_group = int(plan.groups.size());
   for (int i = seg.rod_begin; i < seg.rod_end; ++i)
     if (needs_implicit_solve(rods[i], kelvin_voigt)) plan.rods.push_back(i);
@@ -36,6 +37,7 @@ void build_solve_plans(std::array<SolvePlan, 2>& plans, std::vector<Segment>& se
   for (int kv = 0; kv < 2; ++kv) {
     plans[kv] = SolvePlan{};
     plans[kv].lanes = lanes;
+    plans[kv].buffer_cells = buffer_cells;
     for (Segment& seg : segments) {
       const auto [g0, g1] = plan_segment(plans[kv], rods, seg, lanes, buffer_cells, kv == 1);
       seg.groups_begin[kv] = g0;

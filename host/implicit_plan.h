@@ -18,6 +18,8 @@
 // the thread count.
 #pragma once
 
+#include <array>
+#include <utility>
 #include <vector>
 
 #include "manyrods/batch.h"

@@ -60,9 +60,12 @@ void shift_driven_roots(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T s
 }  // namespace detail
 
 // The implicit stage on the rods of segment r. kLanes = 0: the batch's plan
-// (kImplicitLanes<T> rods per lane group); another lane count (1: every rod
-// by the scalar viscous_implicit_rod) plans the segment on the fly, for
-// tests that compare the kernels. Lanes and scalar kernel agree to
+// (kImplicitLanes<T> rods per lane group). The segment is planned on the fly
+// instead (an allocation per call, for tests and analysis) for another lane
+// count (1: every rod by the scalar viscous_implicit_rod), for a segment
+// that is not one of the batch's (e.g. whole(b)), or when the buffer was
+// reserved larger than the plan assumed (reserve_implicit_scratch with
+// min_cells), so that the groups are always those the buffer allows. Lanes and scalar kernel agree to
 // round-off, not bit for bit (tests/test_implicit_lanes.cpp).
 //
 // `thread` picks the elimination buffer (reserve_implicit_scratch first);
@@ -75,8 +78,9 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
   constexpr int kv = kT.kelvin_voigt ? 1 : 0;
   const SolvePlan* plan = &b.solve_plan[kv];
   int g0 = r.groups_begin[kv], g1 = r.groups_end[kv];
-  SolvePlan other;  // only for a lane count other than the batch's plan
-  if (plan->lanes != W) {
+  const bool own = &r >= b.segments.data() && &r < b.segments.data() + b.segments.size();
+  SolvePlan other;
+  if (!own || plan->lanes != W || plan->buffer_cells != b.scratch.visc_cells) {
     std::tie(g0, g1) = plan_segment(other, b.rods, r, W, b.scratch.visc_cells, kT.kelvin_voigt);
     plan = &other;
   }

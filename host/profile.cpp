@@ -31,6 +31,7 @@ StageTimes& StageTimes::operator+=(const StageTimes& o) {
 }
 
 void Profile::reserve(int threads) {
+  if (threads < 1) threads = 1;
   if (threads > int(per_thread_.size())) per_thread_.resize(std::size_t(threads));
 }
 

@@ -14,6 +14,24 @@ namespace {
 
 std::int64_t round_up(std::int64_t s, std::int64_t m) { return (s / m + 1) * m; }
 
+// A state field (one array or one per component) as raw bytes and back.
+template <class T>
+std::size_t field_size(const Array<T>& a) {
+  return a.size() * sizeof(T);
+}
+template <class T, std::size_t N>
+std::size_t field_size(const std::array<Array<T>, N>& a) {
+  return N * a[0].size() * sizeof(T);
+}
+template <class T>
+void to_bytes(const Array<T>& a, std::vector<unsigned char>& out) {
+  const auto* p = reinterpret_cast<const unsigned char*>(a.data());
+  out.assign(p, p + a.size() * sizeof(T));
+}
+template <class T>
+void from_bytes(Array<T>& a, const std::vector<unsigned char>& in) {
+  std::memcpy(a.data(), in.data(), a.size() * sizeof(T));
+}
 template <class T, std::size_t N>
 void to_bytes(const std::array<Array<T>, N>& a, std::vector<unsigned char>& out) {
   out.clear();
@@ -99,8 +117,15 @@ class SceneRun {
     if (c.slots != b_.slots())
       throw SceneError(s_.source + ": the checkpoint has " + std::to_string(c.slots) + " slots, the scene's batch " +
                        std::to_string(b_.slots()) + " (a different scene?)");
-#define MANYRODS_RESTORE(name, n, fill, float_only, doc) \
-  if (!c.name.empty() && b_.state.name[0].size()) from_bytes(b_.state.name, c.name);
+    // every array the batch has, of its size; a float-only one may be
+    // missing from a file written before it existed (then it stays zero)
+#define MANYRODS_RESTORE(name, n, fill, float_only, doc)                                               \
+  if (const std::size_t want = field_size(b_.state.name); want > 0 && !(float_only && c.name.empty())) { \
+    if (c.name.size() != want)                                                                         \
+      throw SceneError(s_.source + ": the checkpoint's " #name " has " + std::to_string(c.name.size()) + \
+                       " bytes, the batch needs " + std::to_string(want));                             \
+    from_bytes(b_.state.name, c.name);                                                                 \
+  }
     MANYRODS_STATE_FIELDS(MANYRODS_RESTORE)
 #undef MANYRODS_RESTORE
     b_.state.time = c.time;
@@ -249,7 +274,7 @@ class SceneRun {
     c.scene_text = s_.text;
     c.scene_source = s_.source;
 #define MANYRODS_SAVE(name, n, fill, float_only, doc) \
-  if (b_.state.name[0].size()) to_bytes(b_.state.name, c.name);
+  if (field_size(b_.state.name) > 0) to_bytes(b_.state.name, c.name);
     MANYRODS_STATE_FIELDS(MANYRODS_SAVE)
 #undef MANYRODS_SAVE
     if (probes_.empty()) return c;

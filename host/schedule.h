@@ -45,7 +45,8 @@ void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
 }
 
 // Runs f() as stage s of a step, timed into ex.profile when there is one
-// (include/manyrods/profile.h), on behalf of thread `thread`.
+// (include/manyrods/profile.h), on behalf of thread `thread`; the wall time
+// counts ex.threads times (thread-seconds) when all threads run the stage.
 template <class F>
 inline void timed(const Exec& ex, int thread, Stage s, F&& f) {
   if (!ex.profile) {
@@ -55,7 +56,7 @@ inline void timed(const Exec& ex, int thread, Stage s, F&& f) {
   const auto t0 = std::chrono::steady_clock::now();
   f();
   const std::chrono::duration<double> d = std::chrono::steady_clock::now() - t0;
-  ex.profile->add(thread, s, d.count());
+  ex.profile->add(thread, s, d.count() * double(ex.threads > 1 ? ex.threads : 1));
 }
 
 }  // namespace manyrods

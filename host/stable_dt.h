@@ -82,6 +82,90 @@ std::pair<double, double> stiff_rod_bound(const RodBatch<T>& b, int r) {
   return {w2, tw2};
 }
 
+
+// Gershgorin bounds (ω², τ·ω²) of rod r with explicit shear, stretch and
+// twist: element and joint stiffness blocks (above) over the lumped masses
+// and rotary inertias.
+template <Terms kT, class T>
+std::pair<double, double> explicit_rod_bound(const RodBatch<T>& b, int r) {
+  const int n = b.elements(r);
+  // dofs: node j → 3j..3j+2 (j = 0..n), element e → 3(n+1) + 3e
+  const int nd = 3 * (n + 1) + 3 * n;
+  std::vector<double> rows(nd, 0.0), mass(nd, 0.0), rows_tau(nd, 0.0);
+  for (int j = 0; j <= n; ++j) {
+    const int k = b.node_index(r, j);
+    for (int a = 0; a < 3; ++a)
+      mass[3 * j + a] = b.model.node_inv_mass[k] == 0 ? 0.0 : double(b.model.node_mass[k]);
+  }
+  for (int e = 0; e < n; ++e) {
+    const int k = b.elem_index(r, e);
+    for (int a = 0; a < 3; ++a)
+      mass[3 * (n + 1) + 3 * e + a] = double(b.model.elem_inertia[a][k]);
+  }
+  auto accumulate = [&](const Eigen::MatrixXd& K, const std::vector<int>& dof, double tau) {
+    for (int i = 0; i < K.rows(); ++i) {
+      if (mass[dof[i]] == 0) continue;
+      double s = 0;
+      for (int j = 0; j < K.cols(); ++j)
+        if (mass[dof[j]] != 0) s += std::abs(K(i, j)) / std::sqrt(mass[dof[i]] * mass[dof[j]]);
+      rows[dof[i]] += s;
+      rows_tau[dof[i]] += tau * s;
+    }
+  };
+  for (int e = 0; e < n; ++e) {
+    const int k = b.elem_index(r, e);
+    Eigen::Matrix3d q;
+    for (int i = 0; i < 9; ++i) q(i / 3, i % 3) = double(b.state.elem_Q[i][k]);
+    const double l = b.model.elem_rest_length[k];
+    Eigen::Vector3d ed;
+    for (int a = 0; a < 3; ++a) ed[a] = double(b.state.node_x[a][k + 1] - b.state.node_x[a][k]);
+    const Eigen::Vector3d v = q * ed / l;
+    Eigen::Matrix3d sk;
+    sk << 0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0;
+    Eigen::Matrix<double, 3, 9> B;
+    B << -q / l, sk, q / l;
+    const Eigen::Vector3d c(kT.shear ? double(b.model.elem_stiffness[0][k]) : 0.0,
+                            kT.shear ? double(b.model.elem_stiffness[1][k]) : 0.0,
+                            kT.stretch ? double(b.model.elem_stiffness[2][k]) : 0.0);
+    const Eigen::MatrixXd K = l * B.transpose() * c.asDiagonal() * B;
+    std::vector<int> dof;
+    for (int a = 0; a < 3; ++a) dof.push_back(3 * e + a);
+    for (int a = 0; a < 3; ++a) dof.push_back(3 * (n + 1) + 3 * e + a);
+    for (int a = 0; a < 3; ++a) dof.push_back(3 * (e + 1) + a);
+    double tau = 0;
+    for (int a = 0; a < 3; ++a) tau = std::max(tau, double(b.model.elem_tau[a][k]));
+    accumulate(K, dof, kT.kelvin_voigt ? tau : 0.0);
+  }
+  // joints: the root joint (clamp: only element 0) and the interior ones
+  for (int j = -1; j + 1 < n; ++j) {
+    const int k = j < 0 ? b.root_vor_index(r) : b.vor_index(r, j);
+    const double d = b.model.vor_rest_length[k];
+    const Eigen::Vector3d c(kT.bend ? double(b.model.vor_stiffness[0][k]) : 0.0,
+                            kT.bend ? double(b.model.vor_stiffness[1][k]) : 0.0,
+                            kT.twist ? double(b.model.vor_stiffness[2][k]) : 0.0);
+    double tau = 0;
+    for (int a = 0; a < 3; ++a) tau = std::max(tau, double(b.model.vor_tau[a][k]));
+    if (j < 0) {
+      const Eigen::MatrixXd K = Eigen::Matrix3d(c.asDiagonal()) / d;
+      accumulate(K, {3 * (n + 1), 3 * (n + 1) + 1, 3 * (n + 1) + 2}, kT.kelvin_voigt ? tau : 0.0);
+      continue;
+    }
+    Eigen::Matrix<double, 3, 6> C;
+    C << -Eigen::Matrix3d::Identity() / d, Eigen::Matrix3d::Identity() / d;
+    const Eigen::MatrixXd K = d * C.transpose() * c.asDiagonal() * C;
+    std::vector<int> dof;
+    for (int a = 0; a < 3; ++a) dof.push_back(3 * (n + 1) + 3 * j + a);
+    for (int a = 0; a < 3; ++a) dof.push_back(3 * (n + 1) + 3 * (j + 1) + a);
+    accumulate(K, dof, kT.kelvin_voigt ? tau : 0.0);
+  }
+  double w2 = 0, tw2 = 0;
+  for (int i = 0; i < nd; ++i) {
+    w2 = std::max(w2, rows[i]);
+    tw2 = std::max(tw2, rows_tau[i]);
+  }
+  return {w2, tw2};
+}
+
 }  // namespace detail
 
 template <Terms kT, class T>
@@ -89,86 +173,10 @@ StableDt stable_dt(const RodBatch<T>& b) {
   StableDt out;
   double wmax2 = 0, tau_w2 = 0;
   for (int r = 0; r < b.rod_count(); ++r) {
-    const int n = b.elements(r);
-    if (b.rods[r].stiff_implicit) {
-      const auto [w2, tw2] = detail::stiff_rod_bound<kT>(b, r);
-      wmax2 = std::max(wmax2, w2);
-      tau_w2 = std::max(tau_w2, tw2);
-      continue;
-    }
-    // dofs: node j → 3j..3j+2 (j = 0..n), element e → 3(n+1) + 3e
-    const int nd = 3 * (n + 1) + 3 * n;
-    std::vector<double> rows(nd, 0.0), mass(nd, 0.0), rows_tau(nd, 0.0);
-    for (int j = 0; j <= n; ++j) {
-      const int k = b.node_index(r, j);
-      for (int a = 0; a < 3; ++a)
-        mass[3 * j + a] = b.model.node_inv_mass[k] == 0 ? 0.0 : double(b.model.node_mass[k]);
-    }
-    for (int e = 0; e < n; ++e) {
-      const int k = b.elem_index(r, e);
-      for (int a = 0; a < 3; ++a)
-        mass[3 * (n + 1) + 3 * e + a] = double(b.model.elem_inertia[a][k]);
-    }
-    auto accumulate = [&](const Eigen::MatrixXd& K, const std::vector<int>& dof, double tau) {
-      for (int i = 0; i < K.rows(); ++i) {
-        if (mass[dof[i]] == 0) continue;
-        double s = 0;
-        for (int j = 0; j < K.cols(); ++j)
-          if (mass[dof[j]] != 0) s += std::abs(K(i, j)) / std::sqrt(mass[dof[i]] * mass[dof[j]]);
-        rows[dof[i]] += s;
-        rows_tau[dof[i]] += tau * s;
-      }
-    };
-    for (int e = 0; e < n; ++e) {
-      const int k = b.elem_index(r, e);
-      Eigen::Matrix3d q;
-      for (int i = 0; i < 9; ++i) q(i / 3, i % 3) = double(b.state.elem_Q[i][k]);
-      const double l = b.model.elem_rest_length[k];
-      Eigen::Vector3d ed;
-      for (int a = 0; a < 3; ++a) ed[a] = double(b.state.node_x[a][k + 1] - b.state.node_x[a][k]);
-      const Eigen::Vector3d v = q * ed / l;
-      Eigen::Matrix3d sk;
-      sk << 0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0;
-      Eigen::Matrix<double, 3, 9> B;
-      B << -q / l, sk, q / l;
-      const Eigen::Vector3d c(kT.shear ? double(b.model.elem_stiffness[0][k]) : 0.0,
-                              kT.shear ? double(b.model.elem_stiffness[1][k]) : 0.0,
-                              kT.stretch ? double(b.model.elem_stiffness[2][k]) : 0.0);
-      const Eigen::MatrixXd K = l * B.transpose() * c.asDiagonal() * B;
-      std::vector<int> dof;
-      for (int a = 0; a < 3; ++a) dof.push_back(3 * e + a);
-      for (int a = 0; a < 3; ++a) dof.push_back(3 * (n + 1) + 3 * e + a);
-      for (int a = 0; a < 3; ++a) dof.push_back(3 * (e + 1) + a);
-      double tau = 0;
-      for (int a = 0; a < 3; ++a) tau = std::max(tau, double(b.model.elem_tau[a][k]));
-      accumulate(K, dof, kT.kelvin_voigt ? tau : 0.0);
-    }
-    // joints: the root joint (clamp: only element 0) and the interior ones
-    for (int j = -1; j + 1 < n; ++j) {
-      const int k = j < 0 ? b.root_vor_index(r) : b.vor_index(r, j);
-      const double d = b.model.vor_rest_length[k];
-      const Eigen::Vector3d c(kT.bend ? double(b.model.vor_stiffness[0][k]) : 0.0,
-                              kT.bend ? double(b.model.vor_stiffness[1][k]) : 0.0,
-                              kT.twist ? double(b.model.vor_stiffness[2][k]) : 0.0);
-      double tau = 0;
-      for (int a = 0; a < 3; ++a) tau = std::max(tau, double(b.model.vor_tau[a][k]));
-      if (j < 0) {
-        const Eigen::MatrixXd K = Eigen::Matrix3d(c.asDiagonal()) / d;
-        accumulate(K, {3 * (n + 1), 3 * (n + 1) + 1, 3 * (n + 1) + 2}, kT.kelvin_voigt ? tau : 0.0);
-        continue;
-      }
-      Eigen::Matrix<double, 3, 6> C;
-      C << -Eigen::Matrix3d::Identity() / d, Eigen::Matrix3d::Identity() / d;
-      const Eigen::MatrixXd K = d * C.transpose() * c.asDiagonal() * C;
-      std::vector<int> dof;
-      for (int a = 0; a < 3; ++a) dof.push_back(3 * (n + 1) + 3 * j + a);
-      for (int a = 0; a < 3; ++a) dof.push_back(3 * (n + 1) + 3 * (j + 1) + a);
-      accumulate(K, dof, kT.kelvin_voigt ? tau : 0.0);
-    }
-    for (int i = 0; i < nd; ++i) {
-      wmax2 = std::max(wmax2, rows[i]);
-      tau_w2 = std::max(tau_w2, rows_tau[i]);
-    }
+    const auto [w2, tw2] =
+        b.rods[r].stiff_implicit ? detail::stiff_rod_bound<kT>(b, r) : detail::explicit_rod_bound<kT>(b, r);
+    wmax2 = std::max(wmax2, w2);
+    tau_w2 = std::max(tau_w2, tw2);
   }
   out.omega_max = std::sqrt(wmax2);
   out.elastic = wmax2 > 0 ? 2 / out.omega_max : INFINITY;

@@ -2,9 +2,9 @@
 //
 // Unknowns: the position of every free node and a rotation increment φ of
 // every element frame (Q ← exp(−[φ]×) Q, material components). Residual: the
-// generalized forces (host/diagnostics.h) at zero velocity (node forces, element
-// couples; host/diagnostics.h). Rods are independent, so each rod is solved on its own with a
-// dense Jacobian from central differences (6n × 6n; n ≲ 1,000). Loads
+// generalized forces (host/diagnostics.h) at zero velocity (node forces,
+// element couples). Rods are independent, so each rod is solved on its own
+// with a dense Jacobian from central differences (6n × 6n; n ≲ 1,000). Loads
 // (gravity, point forces and couples) are ramped in `load_steps` equal steps
 // so that large deflections are reached along the equilibrium path.
 //

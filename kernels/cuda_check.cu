@@ -21,7 +21,7 @@ __global__ void stage_kernel(int slots, ModelView<T> m, ConstStateView<T> s, Scr
   voronoi_stage<kT>(k, m, s, out);
 }
 
-// kEulerOrder 2: Position Verlet's kick; 4: PEFRL's (host/step.h).
+// kEulerOrder 2: Position Verlet's kick; 4: PEFRL's (host/integrators.h).
 template <unsigned kMask, int kEulerOrder, class T>
 __global__ void kick_kernel(int slots, T h, ModelView<T> m, LoadsView<T> l, ConstScratchView<T> sc,
                             StateView<T> s) {

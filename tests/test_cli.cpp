@@ -517,6 +517,34 @@ TEST(Cli, SweepRestartIsIdenticalToAnUninterruptedSweep) {
   expect_contains(r.err, "already at step");
 }
 
+// The summary line carries the final state's hash (the same for any thread
+// count), and --profile prints the time of each stage of the step.
+TEST(Cli, SummaryHasStateHashAndProfileHasEveryStage) {
+  const std::string scene = write_scene("profile.toml", cantilever(8, 0.2, 0.05));
+  const Result one = cli("run " + scene + " -o " + path("profile1.h5") + " --threads 1 --profile");
+  const Result two = cli("run " + scene + " -o " + path("profile2.h5") + " --threads 2");
+  ASSERT_EQ(one.status, 0) << one.err;
+  ASSERT_EQ(two.status, 0) << two.err;
+  const std::regex hash("state hash ([0-9a-f]{16})");
+  std::smatch h1, h2;
+  ASSERT_TRUE(std::regex_search(one.err, h1, hash)) << one.err;
+  ASSERT_TRUE(std::regex_search(two.err, h2, hash)) << two.err;
+  EXPECT_EQ(h1[1], h2[1]);
+  expect_contains(one.err, "profile (thread-seconds per stage");
+  EXPECT_EQ(two.err.find("profile ("), std::string::npos) << "no table without --profile";
+  // the damped cantilever runs drift, resultants, kick and the implicit
+  // solve; their shares add up to the total
+  double percent = 0;
+  for (const char* stage : {"drift", "resultants", "kick", "implicit_solve"}) {
+    const std::regex line(std::string("  ") + stage + " +([0-9.]+) s +([0-9.]+) %");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(one.err, m, line)) << stage << " missing in:\n" << one.err;
+    percent += std::stod(m[2]);
+  }
+  EXPECT_NEAR(percent, 100.0, 0.5);  // 4 rounded shares of 0.05 % each; no other stage ran
+}
+
+
 // Removes this test's temporary directory after all tests ran.
 class CleanUp : public ::testing::Environment {
  public:
@@ -526,3 +554,4 @@ class CleanUp : public ::testing::Environment {
   }
 };
 const auto* const kCleanUp = ::testing::AddGlobalTestEnvironment(new CleanUp);
+

@@ -81,41 +81,45 @@ std::string quote(const std::string& s) {
   return q + "'";
 }
 
-int plot(const std::string& in, std::string dir) {
-  const h5::Reader rd(in);
-  const h5::Output& o = rd.output();
-  if (dir.empty()) dir = fs::path(in).replace_extension("").string() + "_plots";
-  fs::create_directories(dir);
+// Tip trajectories of up to 6 rods spread over the batch.
+std::vector<int> shown_rods(const h5::Output& o) {
   const int rods = int(o.node_offsets.size()) - 1;
-  // tip trajectories of up to 6 rods spread over the batch
   std::vector<int> shown;
   const int nshow = std::min(rods, 6);
   for (int i = 0; i < nshow; ++i)
     shown.push_back(nshow == 1 ? 0 : int(std::llround(double(i) * (rods - 1) / (nshow - 1))));
-  const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
-  {
-    std::ofstream t(tips);
-    t.precision(10);
-    std::vector<double> pos;
-    for (std::int64_t f = 0; f < rd.frames(); ++f) {
-      rd.read_positions(f, pos);
-      t << o.time[f];
-      for (int r : shown) {
-        const std::int64_t j = o.node_offsets[r + 1] - 1;
-        t << ' ' << pos[3 * j] << ' ' << pos[3 * j + 1] << ' ' << pos[3 * j + 2];
-      }
-      t << '\n';
+  return shown;
+}
+
+// The data files: tips.dat (time, then x y z of each shown tip) and
+// energy.dat (time, kinetic, elastic, potential, mechanical, dissipated, sum).
+void write_plot_data(const h5::Reader& rd, const std::vector<int>& shown, const std::string& tips,
+                     const std::string& energy) {
+  const h5::Output& o = rd.output();
+  std::ofstream t(tips);
+  t.precision(10);
+  std::vector<double> pos;
+  for (std::int64_t f = 0; f < rd.frames(); ++f) {
+    rd.read_positions(f, pos);
+    t << o.time[f];
+    for (int r : shown) {
+      const std::int64_t j = o.node_offsets[r + 1] - 1;
+      t << ' ' << pos[3 * j] << ' ' << pos[3 * j + 1] << ' ' << pos[3 * j + 2];
     }
-    std::ofstream e(energy);
-    e.precision(12);
-    for (std::int64_t f = 0; f < rd.frames(); ++f) {
-      const h5::EnergyRow& r = o.energy[f];
-      const double mech = r.kinetic + r.elastic + r.potential;
-      e << o.time[f] << ' ' << r.kinetic << ' ' << r.elastic << ' ' << r.potential << ' ' << mech << ' '
-        << r.dissipated << ' ' << mech + r.dissipated << '\n';
-    }
+    t << '\n';
   }
-  std::ostringstream gp;
+  std::ofstream e(energy);
+  e.precision(12);
+  for (std::int64_t f = 0; f < rd.frames(); ++f) {
+    const h5::EnergyRow& r = o.energy[f];
+    const double mech = r.kinetic + r.elastic + r.potential;
+    e << o.time[f] << ' ' << r.kinetic << ' ' << r.elastic << ' ' << r.potential << ' ' << mech << ' '
+      << r.dissipated << ' ' << mech + r.dissipated << '\n';
+  }
+}
+
+void tips_and_energy_script(std::ostream& gp, const std::string& dir, const std::vector<int>& shown,
+                            const std::string& tips, const std::string& energy) {
   gp << "set terminal pngcairo size 1200,900\nset grid\nset key outside right\n";
   gp << "set output " << quote(dir + "/tips.png") << "\nset multiplot layout 3,1 title 'tip trajectories'\n";
   const char* axis[3] = {"x", "y", "z"};
@@ -135,44 +139,57 @@ int plot(const std::string& in, std::string dir) {
         "'potential', '' using 1:5 with lines lw 2 title 'mechanical', '' using 1:6 with lines title "
         "'dissipated (KV)', "
         "'' using 1:7 with lines dt 2 lw 2 title 'mechanical + dissipated'\n";
-  std::vector<std::string> made = {dir + "/tips.png", dir + "/energy.png"};
-  if (o.has_sweep && !o.sweep_parameters.empty()) {
-    const std::string sweep = dir + "/sweep.dat";
-    std::ofstream s(sweep);
-    s.precision(12);
-    const std::size_t n = o.sweep_parameters[0].values.size();
-    for (std::size_t i = 0; i < n; ++i) {
-      s << o.sweep_parameters[0].values[i];
-      for (const h5::Column& c : o.sweep_summary)
-        s << ' ' << (std::isfinite(c.values[i]) ? c.values[i] : NAN);
-      s << '\n';
-    }
-    s.close();
-    for (std::size_t c = 0; c < o.sweep_summary.size(); ++c) {
-      const std::string png = dir + "/sweep_" + o.sweep_summary[c].name + ".png";
-      gp << "set output " << quote(png) << "\nset title 'sweep'\nset xlabel "
-         << quote(o.sweep_parameters[0].name) << "\nset ylabel " << quote(o.sweep_summary[c].name)
-         << "\nplot " << quote(sweep) << " using 1:" << c + 2 << " with linespoints title "
-         << quote(o.sweep_summary[c].name) << "\n";
-      made.push_back(png);
-    }
+}
+
+// A sweep's summary columns against its first varied parameter: sweep.dat
+// and one PNG per column (appended to `made`).
+void sweep_script(std::ostream& gp, const h5::Output& o, const std::string& dir, std::vector<std::string>& made) {
+  const std::string sweep = dir + "/sweep.dat";
+  std::ofstream s(sweep);
+  s.precision(12);
+  const std::size_t n = o.sweep_parameters[0].values.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    s << o.sweep_parameters[0].values[i];
+    for (const h5::Column& c : o.sweep_summary) s << ' ' << (std::isfinite(c.values[i]) ? c.values[i] : NAN);
+    s << '\n';
   }
+  for (std::size_t c = 0; c < o.sweep_summary.size(); ++c) {
+    const std::string png = dir + "/sweep_" + o.sweep_summary[c].name + ".png";
+    gp << "set output " << quote(png) << "\nset title 'sweep'\nset xlabel " << quote(o.sweep_parameters[0].name)
+       << "\nset ylabel " << quote(o.sweep_summary[c].name) << "\nplot " << quote(sweep) << " using 1:" << c + 2
+       << " with linespoints title " << quote(o.sweep_summary[c].name) << "\n";
+    made.push_back(png);
+  }
+}
+
+// Writes the script to dir/plots.gp and runs gnuplot on it.
+int run_gnuplot(const std::string& dir, const std::string& script_text, const std::vector<std::string>& made) {
   const std::string script = dir + "/plots.gp";
-  {
-    std::ofstream f(script);
-    f << gp.str();
-  }
-  const std::string cmd = "gnuplot " + quote(script);
+  std::ofstream(script) << script_text;
   const std::string log = dir + "/gnuplot.log";
-  const int rc = std::system((cmd + " 2> " + quote(log)).c_str());
+  const int rc = std::system(("gnuplot " + quote(script) + " 2> " + quote(log)).c_str());
   if (rc != 0) {
-    std::fprintf(stderr,
-                 "manyrods plot: gnuplot failed (exit %d); is gnuplot installed? script: %s, messages: %s\n",
+    std::fprintf(stderr, "manyrods plot: gnuplot failed (exit %d); is gnuplot installed? script: %s, messages: %s\n",
                  rc, script.c_str(), log.c_str());
     return 1;
   }
   for (const std::string& m : made) std::fprintf(stderr, "manyrods: wrote %s\n", m.c_str());
   return 0;
+}
+
+int plot(const std::string& in, std::string dir) {
+  const h5::Reader rd(in);
+  const h5::Output& o = rd.output();
+  if (dir.empty()) dir = fs::path(in).replace_extension("").string() + "_plots";
+  fs::create_directories(dir);
+  const std::vector<int> shown = shown_rods(o);
+  const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
+  write_plot_data(rd, shown, tips, energy);
+  std::ostringstream gp;
+  tips_and_energy_script(gp, dir, shown, tips, energy);
+  std::vector<std::string> made = {dir + "/tips.png", dir + "/energy.png"};
+  if (o.has_sweep && !o.sweep_parameters.empty()) sweep_script(gp, o, dir, made);
+  return run_gnuplot(dir, gp.str(), made);
 }
 
 // A sweep (new, or continued from its file's checkpoint) into opt.output,

@@ -116,6 +116,7 @@ struct SolveGroup {
 // Which rods the implicit solve visits, grouped once when the batch is built.
 struct SolvePlan {
   int lanes = 0;            // rods per lane group it was built for
+  int buffer_cells = 0;     // cells per thread of the buffer it was built for
   std::vector<int> rods;    // per segment, longest first (then by index)
   std::vector<SolveGroup> groups;
 };
@@ -148,8 +149,8 @@ struct Model {
   std::array<T, 3> gravity{T(0), T(0), T(0)};  // m/s²
 };
 
-// The only thing a checkpoint needs; hashed by state_hash
-// (MANYRODS_STATE_FIELDS). node_xc is allocated for float batches only (empty
+// The only thing a checkpoint needs (MANYRODS_STATE_FIELDS); state_hash
+// hashes its real entries. node_xc is allocated for float batches only (empty
 // for double); code that sets node_x directly should zero it.
 template <class T>
 struct State {
@@ -267,9 +268,11 @@ template <class T>
 RodBatch<T> build_batch(const std::vector<RodSpec>& rods, const Vec3& gravity = {0, 0, 0});
 
 // FNV-1a (64-bit) over the bytes of the real (non-ghost) state entries in rod
-// order: each node's x and v, then each element's Q and ω. Equal hashes mean
-// bit-identical states (up to the hash's collisions); a one-ulp change of one
-// entry changes it. Used by the tests, the benchmarks and `manyrods run`.
+// order: each node's x and v (and, for float, node_xc), then each element's
+// Q and ω; not time and steps. Equal hashes mean bit-identical states (up to
+// the hash's collisions); a one-ulp change of one entry changes it. Used by
+// the tests, the benchmarks and `manyrods run`. A new State field is added
+// here by hand (docs/architecture.md "Adding a field").
 template <class T>
 std::uint64_t state_hash(const RodBatch<T>& b);
 

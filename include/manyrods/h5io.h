@@ -10,8 +10,9 @@
 //   /rods/{group, width}  [rods]                   group index, section width (m);
 //                         attribute group_names (one per line)
 //   /scene                group; attributes text (the scene TOML), source
-//   /checkpoint           the full State: node_x, node_v [3, slots],
-//                         elem_Q [9, slots], elem_w [3, slots] in the run's
+//   /checkpoint           the full State (include/manyrods/fields.h):
+//                         node_x, node_v [3, slots], elem_Q [9, slots],
+//                         elem_w [3, slots], node_xc [3, slots] (float) in the run's
 //                         precision, raw slot arrays (ghosts included), and
 //                         attributes time, steps, dt, dissipated, ...
 //                         and, for a sweep, probes/{time, tip, max_strain,

@@ -4,9 +4,12 @@
 // Pass a Profile in Exec::profile to step, step_n, step_pefrl or advance;
 // each stage then reads a steady clock before and after it runs on a segment
 // and adds the difference to the slot of the thread that ran it. Without a
-// profile (the default) a stage costs one branch more. With threads stepping
-// segments in parallel the times are thread-seconds: their total is the
-// threads' busy time, not the wall time of the call.
+// profile (the default) a stage costs one branch more. Times are
+// thread-seconds: a stage that one thread runs on a segment counts its wall
+// time; one that all threads run together (a segment too long to fuse,
+// every PEFRL stage) counts its wall time times the thread count. Their
+// total is the threads' busy time, not the wall time of the call. One
+// Profile serves one call at a time.
 #pragma once
 
 #include <array>
@@ -31,7 +34,7 @@ inline constexpr int kStageCount = int(Stage::count);
 // The stage's name as `manyrods run --profile` and the benchmarks print it.
 const char* stage_name(Stage s);
 
-struct StageTimes {
+struct alignas(64) StageTimes {  // (one cache line per thread's slot)
   std::array<double, kStageCount> seconds{};
   std::array<std::int64_t, kStageCount> calls{};
   double total() const;

@@ -119,7 +119,7 @@ Energies energies(const RodBatch<T>& b, int rod = -1);
 template <class T>
 NonFinite find_non_finite(const RodBatch<T>& b);
 
-// ---- what the library holds (host/instantiate.cpp) ---------------------------
+// ---- what the library holds (host/instantiate_float.cpp, instantiate_double.cpp)------------------------
 #define MANYRODS_STEP_DECLARATIONS(EXTERN, T, TERMS)                                                     \
   EXTERN template void step_n<TERMS, Viscous::implicit, T>(RodBatch<T>&, T, std::int64_t, const Exec&);  \
   EXTERN template void step_pefrl<TERMS, Viscous::implicit, 4, T>(RodBatch<T>&, T, const Exec&);         \
