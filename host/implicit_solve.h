@@ -8,6 +8,7 @@
 
 #include <omp.h>
 
+#include <functional>
 #include <tuple>
 
 #include "host/implicit_plan.h"
@@ -78,7 +79,8 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
   constexpr int kv = kT.kelvin_voigt ? 1 : 0;
   const SolvePlan* plan = &b.solve_plan[kv];
   int g0 = r.groups_begin[kv], g1 = r.groups_end[kv];
-  const bool own = &r >= b.segments.data() && &r < b.segments.data() + b.segments.size();
+  const std::less<const Segment*> before;  // (defined for any two pointers)
+  const bool own = !before(&r, b.segments.data()) && before(&r, b.segments.data() + b.segments.size());
   SolvePlan other;
   if (!own || plan->lanes != W || plan->buffer_cells != b.scratch.visc_cells) {
     std::tie(g0, g1) = plan_segment(other, b.rods, r, W, b.scratch.visc_cells, kT.kelvin_voigt);

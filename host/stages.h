@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "host/launch.h"
+#include "host/schedule.h"
 #include "kernels/energy.h"
 #include "kernels/views.h"
 #include "manyrods/batch.h"
@@ -93,15 +94,15 @@ constexpr bool renormalize_after(std::int64_t step_done) {
 // The stages on the whole batch (one range of slots; for tests and analysis).
 template <Terms kT, class T>
 void compute_resultants(RodBatch<T>& b, const Exec& ex) {
-  compute_resultants<kT>(b, ex, Segment{0, b.slots(), 0, b.rod_count(), false});
+  compute_resultants<kT>(b, ex, whole(b));
 }
 template <class T>
 void drift(RodBatch<T>& b, T h, const Exec& ex) {
-  drift(b, h, ex, Segment{0, b.slots(), 0, b.rod_count(), false});
+  drift(b, h, ex, whole(b));
 }
 template <Terms kT, int kEulerOrder = 2, class T>
 void kick(RodBatch<T>& b, T h, const Exec& ex) {
-  kick<kT, kEulerOrder>(b, h, ex, Segment{0, b.slots(), 0, b.rod_count(), false});
+  kick<kT, kEulerOrder>(b, h, ex, whole(b));
 }
 
 }  // namespace manyrods
