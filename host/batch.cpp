@@ -384,6 +384,7 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
     validate_rod(s);
     info.elastic = resolve_material(s.material);
     info.section = section_properties(s.section, info.elastic.nu);
+    info.contact_radius = contact_radius(s.section);
     info.tau = resolve_damping(s.damping, info.elastic);
     info.damped = info.tau.shear > 0 || info.tau.extension > 0;
   } catch (const InputError& e) {

@@ -45,6 +45,8 @@ Energies energies(const RodBatch<T>& b, int rod) {
       e.elastic += double(element_elastic_energy<kT>(k, m, s)) + double(voronoi_elastic_energy<kT>(k, m, s));
       e.potential += double(node_potential_energy<kT>(k, m, l, s));
       e.dissipation += double(element_dissipation<kT>(k, m, s)) + double(voronoi_dissipation<kT>(k, m, s));
+      if constexpr (kT.colliders || kT.rod_contact)
+        if (b.contact.on) e.contact_work += double(b.contact.work[k]);
     }
   };
   if (rod >= 0) {

@@ -25,6 +25,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "host/contact_stage.h"
 #include "host/diagnostics.h"
 #include "host/implicit_solve.h"
 #include "host/root_motion.h"
@@ -52,15 +53,82 @@ constexpr Terms solve_terms() {
 }
 }  // namespace detail
 
-// `count` Position Verlet steps: each segment runs all stages of all `count`
-// steps before the next segment is touched (temporal blocking: rods do not
-// interact, so the order does not change any result).
+namespace detail {
+// Colliders placed for each of `count` steps from the batch's time (a
+// segment's steps read their step's row: the placements are computed once,
+// not per segment).
+template <Terms kT, class T>
+std::vector<ColliderFrame<T>> collider_frames(const RodBatch<T>& b, T dt, std::int64_t count) {
+  std::vector<ColliderFrame<T>> f;
+  if constexpr (kT.colliders) {
+    const std::size_t nc = b.contact.colliders.size();
+    f.resize(nc * std::size_t(count));
+    double t = b.state.time;
+    for (std::int64_t i = 0; i < count; ++i, t += double(dt))
+      place_colliders(b.contact, t, double(dt), f.data() + nc * std::size_t(i));
+  }
+  return f;
+}
+template <Terms kT, class T>
+void check_contact(const RodBatch<T>& b) {
+  if constexpr (kT.colliders || kT.rod_contact)
+    if (!b.contact.on)
+      throw std::invalid_argument("step: the Terms have contact on but the batch has none (set_contact first)");
+}
+}  // namespace detail
+
+// Position Verlet steps with rod–rod contact: the stages of step_n, with the
+// contact stage (and the broad phase before it) over the whole batch, between
+// the implicit solve and the last drift of each step.
 template <Terms kT, Viscous kV, class T>
-void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
+void step_rod_contact(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
   constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
   constexpr Terms kSolve = detail::solve_terms<kT, kV>();
   const bool solve = kSolve.kelvin_voigt || b.any_stiff();
   if (solve) b.reserve_implicit_scratch(ex.threads);
+  const Segment all = whole(b);
+  for (std::int64_t i = 0; i < count; ++i) {
+    const double t = b.state.time;
+    const std::vector<ColliderFrame<T>> frames = detail::collider_frames<kT>(b, dt, 1);
+    for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
+      if (r.driven_end > r.driven_begin)
+        timed(e, thread, Stage::root_motion, [&] { apply_root_motion(b, r, t, double(dt)); });
+      timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
+      timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
+      timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
+      if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+    });
+    timed(ex, 0, Stage::broad_phase, [&] { update_neighbours(b, dt, ex); });
+    timed(ex, 0, Stage::contact, [&] { contact_stage<kT>(b, dt, frames.data(), ex, all); });
+    for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
+      timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
+      if (renormalize_after<T>(b.state.steps + 1))
+        timed(e, thread, Stage::renormalize, [&] { renormalize_frames(b, e, r); });
+    });
+    b.state.time += double(dt);
+    b.state.steps += 1;
+  }
+}
+
+// `count` Position Verlet steps: each segment runs all stages of all `count`
+// steps before the next segment is touched (temporal blocking: rods do not
+// interact, so the order does not change any result). Colliders touch one
+// rod at a time and keep the blocking; rod–rod contact couples the rods, so
+// then every step runs its stages over all segments up to the contact
+// stage, the contact stage over the whole batch, and the rest (step_rod_contact).
+template <Terms kT, Viscous kV, class T>
+void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
+  constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
+  constexpr Terms kSolve = detail::solve_terms<kT, kV>();
+  detail::check_contact<kT>(b);
+  if constexpr (kT.rod_contact) {
+    step_rod_contact<kT, kV>(b, dt, count, ex);
+    return;
+  }
+  const bool solve = kSolve.kelvin_voigt || b.any_stiff();
+  if (solve) b.reserve_implicit_scratch(ex.threads);
+  const std::vector<ColliderFrame<T>> frames = detail::collider_frames<kT>(b, dt, count);
+  const std::size_t nc = b.contact.colliders.size();
   for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
     double t = b.state.time;
     for (std::int64_t i = 0; i < count; ++i) {
@@ -71,6 +139,8 @@ void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
       timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
       timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
       if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+      if constexpr (kT.colliders)
+        timed(e, thread, Stage::contact, [&] { contact_stage<kT>(b, dt, frames.data() + nc * std::size_t(i), e, r); });
       timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
       if (renormalize_after<T>(b.state.steps + i + 1))
         timed(e, thread, Stage::renormalize, [&] { renormalize_frames(b, e, r); });
@@ -126,6 +196,10 @@ template <Terms kT, Viscous kV, int kEulerOrder, class T>
 void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex) {
   constexpr bool kImplicit = kT.kelvin_voigt && kV == Viscous::implicit;
   constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
+  if constexpr (kT.colliders || kT.rod_contact)
+    throw std::invalid_argument(
+        "step_pefrl: contact (Terms::colliders, Terms::rod_contact) is stepped by Position Verlet only; use "
+        "step/step_n/advance with Integrator::position_verlet");
   if (b.any_stiff())
     throw std::invalid_argument(
         "step_pefrl: the batch has stiff rods (RodSpec::stiff_implicit), which only Position Verlet "

@@ -1,5 +1,6 @@
 // host/material.cpp — section properties, elastic constants, and the
 // Kelvin–Voigt parameter forms, validated at the boundary.
+#include <algorithm>
 #include "manyrods/material.h"
 
 #include <cmath>
@@ -42,6 +43,14 @@ double rectangle_torsion_constant(double w, double h) {
 }
 
 }  // namespace
+
+double contact_radius(const Section& sec) {
+  switch (sec.shape) {
+    case Shape::ellipse: return std::max(sec.a, sec.b);
+    case Shape::rectangle: return 0.5 * std::hypot(sec.a, sec.b);
+    default: return sec.a;  // circle, hollow circle: the outer radius
+  }
+}
 
 SectionProperties section_properties(const Section& sec, double nu) {
   const double pi = std::numbers::pi;

@@ -10,6 +10,8 @@ const char* stage_name(Stage s) {
     case Stage::resultants: return "resultants";
     case Stage::kick: return "kick";
     case Stage::implicit_solve: return "implicit_solve";
+    case Stage::broad_phase: return "broad_phase";
+    case Stage::contact: return "contact";
     case Stage::renormalize: return "renormalize";
     case Stage::count: break;
   }

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "manyrods/array.h"
+#include "manyrods/contact.h"
 #include "manyrods/drive.h"
 #include "manyrods/fields.h"
 #include "manyrods/material.h"
@@ -132,6 +133,7 @@ struct RodInfo {
   ElasticConstants elastic{};
   SectionProperties section{};
   RetardationTimes tau{};
+  double contact_radius = 0;  // m: the radius its centreline is swept by in contact (include/manyrods/contact.h)
 };
 
 // One field of the lists in include/manyrods/fields.h: one array, or one
@@ -214,6 +216,8 @@ class RodBatch {
   // the Kelvin–Voigt term (stiff rods always; damped rods with it), built
   // with the batch; each segment owns a range of groups.
   std::array<SolvePlan, 2> solve_plan;
+  // What the rods touch (set_contact, include/manyrods/contact.h); off by default.
+  ContactData<T> contact;
 
   int rod_count() const { return static_cast<int>(rods.size()); }
   int slots() const { return slots_; }

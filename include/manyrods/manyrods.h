@@ -19,6 +19,7 @@
 #pragma once
 
 #include "manyrods/batch.h"
+#include "manyrods/contact.h"
 #include "manyrods/drive.h"
 #include "manyrods/material.h"
 #include "manyrods/profile.h"

@@ -52,6 +52,11 @@ struct SectionProperties {
 
 SectionProperties section_properties(const Section& section, double poisson_ratio);
 
+// The radius of the circle that holds the section (its own radius for a
+// circle; ellipse: the larger semi-axis; rectangle: half the diagonal):
+// contact treats every rod as the tube it sweeps (include/manyrods/contact.h).
+double contact_radius(const Section& section);
+
 // Give poisson_ratio OR shear_modulus (G = E / (2(1 + ν))).
 struct Material {
   double density = 0;          // kg/m³

@@ -26,6 +26,8 @@ enum class Stage {
   resultants,      // strains and resultants (kernels/strains.h, resultants.h, internal_forces.h)
   kick,            // v += h m⁻¹ F, ω += h J⁻¹ C (kernels/integrate.h)
   implicit_solve,  // per-rod backward-Euler solve (kernels/viscous_implicit*.h)
+  broad_phase,     // rod–rod candidate lists, when they need rebuilding (host/contact.cpp)
+  contact,         // contact impulses and friction (kernels/contact.h)
   renormalize,     // float frames back to orthonormal (kernels/integrate.h)
   count
 };

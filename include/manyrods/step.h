@@ -52,6 +52,12 @@ enum class Integrator { position_verlet, pefrl };
 inline constexpr Terms kNoKelvinVoigt{true, true, true, true, false, true, true};
 inline constexpr Terms kNoGravity{true, true, true, true, true, false, true};
 inline constexpr Terms kNoKelvinVoigtNoGravity{true, true, true, true, false, false, true};
+inline constexpr Terms kColliders{true, true, true, true, true, true, true, true, false};
+inline constexpr Terms kRodContact{true, true, true, true, true, true, true, false, true};
+inline constexpr Terms kAllContact{true, true, true, true, true, true, true, true, true};
+inline constexpr Terms kCollidersNoKelvinVoigt{true, true, true, true, false, true, true, true, false};
+inline constexpr Terms kRodContactNoKelvinVoigt{true, true, true, true, false, true, true, false, true};
+inline constexpr Terms kAllContactNoKelvinVoigt{true, true, true, true, false, true, true, true, true};
 
 // Energies of rod `rod` (or of the whole batch when rod < 0), summed in
 // double in index order (deterministic).
@@ -60,6 +66,11 @@ struct Energies {
   double elastic = 0;       // stretch, shear, bend, twist
   double potential = 0;     // gravity and dead point forces
   double dissipation = 0;   // 2·D_v: rate of viscous energy loss, W
+  // Work done on the rods by contact and friction impulses since set_contact
+  // (≤ 0 where they only dissipate; with moving colliders also a source), J:
+  // kinetic + elastic + potential − contact_work + ∫2·D_v dt is constant
+  // (docs/contact.md "Energy"). Zero without contact Terms.
+  double contact_work = 0;
   double total() const { return kinetic + elastic + potential; }
 };
 
@@ -133,9 +144,26 @@ NonFinite find_non_finite(const RodBatch<T>& b);
   MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoKelvinVoigt)      \
   MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoGravity)          \
   MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoKelvinVoigtNoGravity)
+// With contact (include/manyrods/contact.h): colliders, rod–rod/self, both;
+// each with and without the Kelvin–Voigt term, with gravity (a scene without
+// gravity sets it to zero). Position Verlet only.
+#define MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, TERMS)                                             \
+  EXTERN template void step_n<TERMS, Viscous::implicit, T>(RodBatch<T>&, T, std::int64_t, const Exec&);  \
+  EXTERN template void advance<TERMS, Viscous::implicit, Integrator::position_verlet, T>(                \
+      RodBatch<T>&, T, std::int64_t, const Exec&, const AdvanceOptions&);                                \
+  EXTERN template Energies energies<TERMS, T>(const RodBatch<T>&, int);
+#define MANYRODS_STEP_CONTACT_TERMS(EXTERN, T)                         \
+  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kColliders)            \
+  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kRodContact)           \
+  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kAllContact)           \
+  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kCollidersNoKelvinVoigt) \
+  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kRodContactNoKelvinVoigt) \
+  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kAllContactNoKelvinVoigt)
 
 MANYRODS_STEP_ALL_TERMS(extern, float)
 MANYRODS_STEP_ALL_TERMS(extern, double)
+MANYRODS_STEP_CONTACT_TERMS(extern, float)
+MANYRODS_STEP_CONTACT_TERMS(extern, double)
 extern template NonFinite find_non_finite<float>(const RodBatch<float>&);
 extern template NonFinite find_non_finite<double>(const RodBatch<double>&);
 

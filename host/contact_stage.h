@@ -1,0 +1,105 @@
+// host/contact_stage.h — the contact stage of a step (kernels/contact.h) and
+// the rod–rod broad phase (docs/contact.md).
+//
+//   place_colliders     each collider's lab placement and velocity field over a step
+//   update_neighbours   the rod–rod candidate lists, rebuilt when a node moved
+//                       farther than the skin allows (a sorted uniform grid)
+//   contact_stage       count → impulses → apply, over a range of slots
+//
+// Determinism: every pass is a gather over slots (no atomics, no float
+// reduction across threads); the grid is sorted by (cell, slot), and each
+// element visits its 27 cells in a fixed order, so the candidate lists, and
+// with them every sum, do not depend on the thread count.
+#pragma once
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+#include <utility>
+#include <stdexcept>
+#include <vector>
+
+#include "kernels/contact.h"
+#include "kernels/views.h"
+#include "manyrods/batch.h"
+#include "manyrods/step.h"
+
+namespace manyrods {
+
+// Kernel view of the batch's contact data with the colliders placed by `frames`.
+template <class T>
+ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
+  ContactData<T>& c = b.contact;
+  ContactView<T> v;
+  v.colliders = frames;
+  v.collider_count = int(c.colliders.size());
+  v.elem_radius = c.elem_radius.data();
+  v.elem_rod = c.elem_rod.data();
+  v.rod_mu = c.rod_mu.data();
+  v.rod_mu_own = c.rod_mu_own.data();
+  v.elem_count = c.elem_count.data();
+  for (int d = 0; d < 3; ++d) {
+    v.p0[d] = c.elem_p0[d].data();
+    v.p1[d] = c.elem_p1[d].data();
+    v.l[d] = c.elem_l[d].data();
+  }
+  v.elem_active = c.elem_active.data();
+  v.elem_depth = c.elem_depth.data();
+  v.work = c.work.data();
+  v.neighbours = c.neighbours.data();
+  v.neighbour_count = c.neighbour_count.data();
+  v.capacity = c.spec.capacity;
+  v.rod_exclusion = c.rod_exclusion.data();
+  v.rod_rod = c.spec.rod_rod;
+  v.self = c.spec.self;
+  v.hardness = T(c.spec.hardness);
+  v.damping_ratio = T(c.spec.damping_ratio);
+  return v;
+}
+
+// Collider frames for the step [t, t + h]: the pose at t + h/2 places the
+// geometry; the velocity field is that of the motion over the step,
+// v(p) = (R(t+h) − R(t)) R(t+h/2)ᵀ (p − c(t+h/2))/h + (c(t+h) − c(t))/h.
+// (host/contact.cpp)
+template <class T>
+void place_colliders(const ContactData<T>& c, double t, double h, ColliderFrame<T>* out);
+
+// Rebuilds the rod–rod candidate lists when needed (host/contact.cpp);
+// throws std::runtime_error naming the element when one overflows.
+template <class T>
+void update_neighbours(RodBatch<T>& b, T h, const Exec& ex);
+
+namespace detail {
+template <class F>
+void for_slots(int begin, int end, const Exec& ex, F&& f) {
+  if (ex.threads > 1 && end - begin > 2 * kGuard) {
+#pragma omp parallel for num_threads(ex.threads) schedule(static, kGuard)
+    for (int k = begin; k < end; ++k) f(k);
+  } else {
+    for (int k = begin; k < end; ++k) f(k);
+  }
+}
+}  // namespace detail
+
+// The contact stage on the slots of r (after the implicit solve, before the
+// last drift): every element counts its contacts in range, then computes
+// their impulses with the counts of its and its partners' nodes, then every
+// node and element applies what its elements gathered. With rod contact r
+// must be the whole batch (partners may be anywhere).
+// reads: model, state, contact data  writes: state.node_v, elem_w, contact scratch and work
+template <Terms kT, class T>
+void contact_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r) {
+  const ModelView<T> m = b.model_view();
+  const StateView<T> s = b.state_view();
+  const ConstStateView<T> cs = std::as_const(b).state_view();
+  const ContactView<T> cv = contact_view(b, frames);
+  constexpr bool kC = kT.colliders, kR = kT.rod_contact;
+  detail::for_slots(r.begin, r.end, ex, [&](int k) { element_contacts<kC, kR, false>(k, h, m, cs, cv); });
+  detail::for_slots(r.begin, r.end, ex, [&](int k) { element_contacts<kC, kR, true>(k, h, m, cs, cv); });
+  detail::for_slots(r.begin, r.end, ex, [&](int k) { apply_contact(k, m, s, cv); });
+}
+
+}  // namespace manyrods

@@ -1,0 +1,181 @@
+// include/manyrods/contact.h — what rods touch: colliders (plane, sphere,
+// capsule, a closed triangle mesh as a signed-distance grid) and each other
+// (rod–rod and self contact), with Coulomb friction (docs/contact.md has the
+// model, the contact law and its derivation).
+//
+//   set_contact(batch, spec)     colliders, rod–rod/self switches, friction,
+//                                validated (InputError naming collider, rod, node)
+//   contact_stats(batch)         contacts and deepest penetration now
+//
+// and step with Terms::colliders / Terms::rod_contact on (include/manyrods/terms.h).
+//
+// The contact law in one paragraph. Each contact (an element's centreline
+// segment, swept by its radius, against a collider or another element) is a
+// spring of stiffness k = Ω² m_c / h² and a dashpot c = 2 ζ Ω m_c / h on the
+// gap g (distance minus the radii), where m_c is the contact's effective mass
+// and h the step. It is integrated by backward Euler on the gap at the end of
+// the step, so that its impulse is closed-form and the step is stable for any
+// Ω: the user does not tune a penalty, and contact does not shrink the step.
+// Friction is exact Coulomb on the same step's normal impulse: the contact
+// point sticks while the impulse that stops it lies in the (possibly
+// elliptic) cone μ_s λ, and slides with μ_k λ otherwise.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "manyrods/array.h"
+#include "manyrods/drive.h"
+
+namespace manyrods {
+
+// Coulomb coefficients (≥ 0, kinetic ≤ static). The *_axial ones, when ≥ 0,
+// apply along the rod's tangent and the others across it (an elliptic cone:
+// snakes and crawlers); −1 = isotropic.
+struct Friction {
+  double static_coefficient = 0;
+  double kinetic_coefficient = 0;
+  double static_axial = -1;
+  double kinetic_axial = -1;
+};
+
+// A signed-distance grid of a closed triangle mesh (negative inside), in the
+// collider's body frame: φ at the nodes of a regular grid, trilinear between
+// them (load_mesh_collider builds it).
+struct DistanceGrid {
+  Vec3 origin{0, 0, 0};  // m, the node (0, 0, 0)
+  double spacing = 0;    // m
+  int n[3] = {0, 0, 0};  // nodes per axis
+  std::vector<float> phi;  // [n2][n1][n0] m
+  // the mesh it came from, for USD export
+  std::vector<Vec3> vertices;
+  std::vector<int> triangles;  // [3 × triangles]
+};
+
+enum class ColliderKind { plane, sphere, capsule, mesh };
+
+// A rigid collider. Geometry in its body frame, placed in the lab by its
+// motion (the rigid motions of driven roots, include/manyrods/drive.h; none:
+// static, the body frame is the lab).
+struct Collider {
+  std::string name;
+  ColliderKind kind = ColliderKind::plane;
+  Vec3 point{0, 0, 0}, normal{0, 0, 1};  // plane: a point and the outward normal
+  Vec3 center{0, 0, 0};                  // sphere
+  Vec3 a{0, 0, 0}, b{0, 0, 0};           // capsule: the axis segment
+  double radius = 0;                     // sphere, capsule
+  std::shared_ptr<const DistanceGrid> grid;  // mesh
+  Friction friction;
+  std::shared_ptr<const RootMotion> motion;
+};
+
+// What a batch touches (set_contact).
+struct ContactSpec {
+  std::vector<Collider> colliders;
+  bool rod_rod = false;     // contact between any two rods
+  bool self = false;        // contact of a rod with itself (beyond its near neighbours)
+  Friction friction;        // rod–rod and self, for rods without their own
+  // per rod (empty, or one per rod): its own friction (a rod group's key),
+  // combined with its partner's as docs/contact.md "Friction of a pair" says;
+  // rod_has_friction[r] = 0: rod r takes `friction` against rods and the
+  // collider's own against colliders
+  std::vector<Friction> rod_friction;
+  std::vector<char> rod_has_friction;
+  // Ω = h √(k / m_c): how hard contacts are. Larger: less penetration and less
+  // restitution (docs/contact.md "The contact law"); > 0.
+  double hardness = 2;
+  double damping_ratio = 0;  // ζ ≥ 0, added to backward Euler's own damping
+  // rod–rod broad phase: the Verlet skin (m; 0: automatic, docs/contact.md)
+  // and the candidate capacity per element (an overflow is an error).
+  double skin = 0;
+  int capacity = 32;
+};
+
+// ---- the batch's contact data (RodBatch::contact; set_contact fills it) ----------
+// Kernels read these arrays through plain pointers (kernels/contact.h);
+// every array is indexed by slot like the batch's fields.
+
+// A collider as the kernels see it during one step: its lab placement at the
+// step's midpoint and the velocity field of its rigid motion over the step,
+// v(p) = A (p − c) + u.
+template <class T>
+struct ColliderFrame {
+  int kind = 0;                       // ColliderKind
+  T p[3] = {}, q[3] = {}, n[3] = {};  // plane: point p, normal n; sphere: centre p; capsule: p–q
+  T radius = 0;
+  T R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, c[3] = {};  // body → lab: x = R X + c
+  T A[9] = {}, u[3] = {};                          // velocity field
+  T mu[4] = {};                                     // static, kinetic, static axial, kinetic axial
+  // mesh: the grid in the body frame
+  const float* phi = nullptr;
+  int nx = 0, ny = 0, nz = 0;
+  T origin[3] = {}, spacing = 0;
+};
+
+template <class T>
+struct ContactData {
+  bool on = false;  // set_contact was called
+  ContactSpec spec;
+  std::vector<ColliderFrame<T>> colliders;  // [colliders] placement of the current step
+  // per slot (model): contact radius (0: ghost), rod index (−1: ghost)
+  Array<T> elem_radius;
+  Array<int> elem_rod;
+  std::vector<T> rod_mu;  // [4 × rods] the rods' friction against rods; rod_mu_own[r]: set by the rod
+  std::vector<int> rod_mu_own;
+  std::vector<int> rod_exclusion;  // [rods] self contact skips elements |i − j| ≤ this apart
+  // per slot (scratch of the contact stage, kernels/contact.h)
+  Array<int> elem_count;              // contacts in range of element k (mass splitting)
+  std::array<Array<T>, 3> elem_p0;    // N·s: impulse on node k from element k's contacts
+  std::array<Array<T>, 3> elem_p1;    // N·s: impulse on node k+1
+  std::array<Array<T>, 3> elem_l;     // N·m·s: couple impulse on element k (lab)
+  Array<int> elem_active;             // contacts of element k that pushed (λ > 0) this step
+  Array<T> elem_depth;                // m: deepest penetration of element k this step (≥ 0)
+  Array<T> work;                      // J: work of the contact impulses on slot k's node and element, summed over steps
+  // rod–rod broad phase (docs/contact.md "Finding rod–rod contacts")
+  std::array<Array<T>, 3> node_x_ref;  // m: node positions at the last rebuild
+  Array<int> neighbours;               // [slots × capacity] candidate partner slots of element k, in order
+  Array<int> neighbour_count;          // [slots]
+  std::vector<std::uint64_t> cell_key;  // sorted (cell, slot) pairs of the grid
+  std::vector<int> cell_slot;
+  T skin = 0, cell = 0;
+  double max_radius = 0, max_length = 0;  // m: the rods' largest contact radius and rest length
+  bool built = false;
+  std::int64_t rebuilds = 0;
+};
+
+// Contacts now (recomputed from the state; for outputs, not for the step).
+struct ContactStats {
+  std::int64_t contacts = 0;     // element–collider and element–element (each pair once) in touch, gap < 0
+  double max_penetration = 0;    // m, the deepest overlap (≥ 0)
+  int rod = -1, element = -1;    // where it is
+  std::int64_t rebuilds = 0;     // rod–rod neighbour-list rebuilds so far
+};
+
+template <class T>
+class RodBatch;
+
+// Gives the batch its colliders and contact switches (replacing earlier
+// ones). Validates: friction ≥ 0 with kinetic ≤ static, hardness > 0,
+// damping ratio ≥ 0, capacity ≥ 1, sphere/capsule radius > 0, a plane's
+// normal ≠ 0, a mesh with its grid; no rod may start inside a collider
+// (overlapping it by more than 1 % of its radius). InputError names the
+// collider, the rod and the node.
+template <class T>
+void set_contact(RodBatch<T>& b, const ContactSpec& spec);
+
+// Contacts and the deepest penetration of the current state (the colliders
+// placed at the batch's time).
+template <class T>
+ContactStats contact_stats(const RodBatch<T>& b);
+
+// A closed triangle mesh from a Wavefront OBJ file as a signed-distance grid
+// with `resolution` nodes along its longest side (plus a margin). Accepts
+// OBJ with triangles or polygons (fanned), closed (every edge shared by
+// exactly two faces) and consistently oriented; InputError naming the file
+// (and the face or edge) otherwise.
+std::shared_ptr<const DistanceGrid> load_mesh_grid(const std::string& path, int resolution);
+
+}  // namespace manyrods

@@ -1,0 +1,394 @@
+// Contact (include/manyrods/contact.h, docs/contact.md; docs/validation.md
+// "9 Contact"): Coulomb friction on a plane (stick below μ_s m g, the sliding
+// kinetic energy above it), the normal law (restitution and resting overlap
+// of the derived law, no tunnelling at 1–10 m/s), rod–rod momentum exchange,
+// a crossing rod that carries a load, determinism for any thread count, and
+// bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "manyrods/advanced.h"
+
+using namespace manyrods;
+
+namespace {
+
+constexpr double kG = 9.81;
+constexpr double kR = 0.005, kLen = 0.1, kRho = 1000, kE = 1e6;
+
+// A soft rod of radius 5 mm, 10 cm long, lying along `dir` with its
+// centreline at `start`.
+RodSpec lying_rod(const Vec3& start, const Vec3& dir, int n = 10, double length = kLen) {
+  const Vec3 normal = std::abs(dir[2]) > 0.9 ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+  RodSpec s = RodSpec::straight(start, dir, normal, length, n);
+  s.name = "rod";
+  s.section = Section::circle(kR);
+  s.material = {kRho, kE, 0.3};
+  return s;
+}
+
+double rod_mass(const RodBatch<double>& b, int rod) {
+  double m = 0;
+  for (int i = 0; i <= b.elements(rod); ++i) m += b.model.node_mass[b.node_index(rod, i)];
+  return m;
+}
+Vec3 momentum(const RodBatch<double>& b, int rod) {
+  Vec3 p{0, 0, 0};
+  for (int i = 0; i <= b.elements(rod); ++i) {
+    const double m = b.model.node_mass[b.node_index(rod, i)];
+    const Vec3 v = b.velocity(rod, i);
+    for (int d = 0; d < 3; ++d) p[d] += m * v[d];
+  }
+  return p;
+}
+Vec3 com(const RodBatch<double>& b, int rod) {
+  Vec3 c{0, 0, 0};
+  const double m = rod_mass(b, rod);
+  for (int i = 0; i <= b.elements(rod); ++i) {
+    const double w = b.model.node_mass[b.node_index(rod, i)] / m;
+    const Vec3 x = b.position(rod, i);
+    for (int d = 0; d < 3; ++d) c[d] += w * x[d];
+  }
+  return c;
+}
+
+Collider floor_plane(double mu_s = 0, double mu_k = 0) {
+  Collider c;
+  c.name = "floor";
+  c.kind = ColliderKind::plane;
+  c.point = {0, 0, 0};
+  c.normal = {0, 0, 1};
+  c.friction.static_coefficient = mu_s;
+  c.friction.kinetic_coefficient = mu_k;
+  return c;
+}
+
+// ---- 9a Coulomb friction: a rod pulled along a plane ------------------------------
+// A rod resting on a plane is pulled along its axis by F (each node by F m_i/m,
+// so that the rod moves rigidly). It sticks for F ≤ μ_s m g; above, it slides
+// with v(t) = t (F − μ_k m g)/m, i.e. kinetic energy t²(F − μ_k m g)²/(2m).
+struct Pulled {
+  double displacement, velocity, expected_velocity, free_displacement;
+};
+Pulled pull(double f_over_mus_mg) {
+  const double mus = 0.5, muk = 0.3, dt = 1e-4;
+  RodBatch<double> b = build_batch<double>({lying_rod({0, 0, kR}, {1, 0, 0})}, {0, 0, -kG});
+  ContactSpec spec;
+  spec.colliders = {floor_plane(mus, muk)};
+  set_contact(b, spec);
+  step_n<kCollidersNoKelvinVoigt>(b, dt, 1000);  // settle on the plane (0.1 s)
+  const double m = rod_mass(b, 0), f = f_over_mus_mg * mus * m * kG;
+  for (int i = 0; i <= b.elements(0); ++i)
+    b.set_node_force(0, i, {f * b.model.node_mass[b.node_index(0, i)] / m, 0, 0});
+  const Vec3 x0 = com(b, 0);
+  const double t = 0.1;
+  step_n<kCollidersNoKelvinVoigt>(b, dt, 1000);
+  const Vec3 x1 = com(b, 0);
+  const double vexp = f > muk * m * kG && f > mus * m * kG ? t * (f - muk * m * kG) / m : 0.0;
+  return {x1[0] - x0[0], momentum(b, 0)[0] / m, vexp, 0.5 * f / m * t * t};
+}
+
+TEST(Contact, RodPulledOnPlaneSticksBelowStaticFriction) {
+  for (double ratio : {0.5, 0.7, 0.8, 0.9, 0.95}) {
+    const Pulled p = pull(ratio);
+    // Sticking is exact in the law (the impulse that stops the contact point
+    // is taken whole while it lies in the cone); what moves is the elastic
+    // give of the rod under the friction couple at its surface, a small
+    // fraction of the free motion ½ (F/m) t².
+    EXPECT_LT(std::abs(p.displacement), 1e-3 * p.free_displacement) << "F = " << ratio << " μs m g";
+  }
+}
+
+TEST(Contact, RodPulledOnPlaneSlidesWithKineticEnergyOfCoulombLaw) {
+  for (double ratio : {1.2, 2.0}) {
+    const Pulled p = pull(ratio);
+    // Kinetic friction μ_k λ per step with the step's own λ = m g h (the rod
+    // has settled): the rigid sliding is exact to round-off; the rod's
+    // pitching under the friction couple (elastic, ~ μ r/L of the motion)
+    // bounds the difference.
+    EXPECT_NEAR(p.velocity, p.expected_velocity, 2e-3 * p.expected_velocity) << "F = " << ratio << " μs m g";
+    const double ke = 0.5 * p.velocity * p.velocity, ke_exp = 0.5 * p.expected_velocity * p.expected_velocity;
+    EXPECT_NEAR(ke, ke_exp, 4e-3 * ke_exp);
+  }
+}
+
+// ---- 9b The normal law -------------------------------------------------------------
+// One contact of effective mass m_c, stepped by Position Verlet with (C1):
+// the reference is the same law on a single mass (the flat rod falls as one
+// body: every element's contact has m_c = the node mass, docs/contact.md).
+double restitution_of_law(double v0, double gap0, double h, double omega) {
+  // drift ½h, impulse, drift ½h on (gap, v)
+  double g = gap0, v = -v0;
+  bool touched = false;
+  for (int i = 0; i < 1000000; ++i) {
+    g += 0.5 * h * v;
+    const double lam = std::max(0.0, -(omega * omega * g / h + omega * omega * v) / (1 + omega * omega));
+    if (lam > 0) touched = true;
+    v += lam;
+    g += 0.5 * h * v;
+    if (touched && lam == 0 && v > 0) return v / v0;
+  }
+  return -1;
+}
+
+struct Drop {
+  double restitution, max_penetration;
+};
+Drop drop(double v0, double omega, double h) {
+  RodBatch<double> b = build_batch<double>({lying_rod({0, 0, kR + 0.5 * v0 * h}, {1, 0, 0})}, {0, 0, 0});
+  for (int i = 0; i <= b.elements(0); ++i) b.set_velocity(0, i, {0, 0, -v0});
+  ContactSpec spec;
+  spec.colliders = {floor_plane()};
+  spec.hardness = omega;
+  set_contact(b, spec);
+  double deepest = 0;
+  for (int i = 0; i < 4000; ++i) {
+    step<kCollidersNoKelvinVoigt>(b, h);
+    deepest = std::max(deepest, contact_stats(b).max_penetration);
+    if (momentum(b, 0)[2] > 0 && contact_stats(b).contacts == 0 && com(b, 0)[2] > kR + 2 * v0 * h) break;
+  }
+  return {momentum(b, 0)[2] / rod_mass(b, 0) / v0, deepest};
+}
+
+TEST(Contact, DroppedRodReboundsWithTheRestitutionOfTheLaw) {
+  const double h = 1e-4, omega = 0.2;
+  const double e_cont = std::exp(-std::numbers::pi * (omega / 2) / std::sqrt(1 - omega * omega / 4));
+  for (double v0 : {1.0, 3.0, 10.0}) {
+    const Drop d = drop(v0, omega, h);
+    const double e_law = restitution_of_law(v0, 0.5 * v0 * h, h, omega);
+    // the flat rod falls as one body: the law's scalar recurrence to round-off
+    EXPECT_NEAR(d.restitution, e_law, 1e-9) << "v0 = " << v0;
+    // backward Euler's damping c = h k is ζ = Ω/2: the continuous law's
+    // e = exp(−πζ/√(1 − ζ²)) up to the O(Ω²) of the discrete phase
+    EXPECT_NEAR(e_law, e_cont, omega * omega) << "v0 = " << v0;
+    // the spring: depth v0 √(m/k) = v0 h/Ω (less: damped), and never through
+    EXPECT_LT(d.max_penetration, v0 * h / omega);
+    EXPECT_GT(d.max_penetration, 0.5 * v0 * h / omega);
+  }
+}
+
+TEST(Contact, FastDropDoesNotTunnelAtDefaultHardness) {
+  const double h = 1e-4;
+  for (double v0 : {1.0, 10.0, 100.0}) {
+    const Drop d = drop(v0, 2.0, h);
+    // the impulse acts on the predicted end-of-step gap: the first step that
+    // would overlap stops at 1/(1 + Ω²) of the overshoot, at most v0 h/5
+    EXPECT_LT(d.max_penetration, v0 * h / 5 + 1e-12) << "v0 = " << v0;
+    EXPECT_LT(d.restitution, 0.2);  // hard contacts are nearly inelastic (e ≈ 0.06 for Ω = 2)
+    EXPECT_GE(d.restitution, 0.0);
+  }
+}
+
+TEST(Contact, RestingOverlapIsWeightOverStiffness) {
+  const double h = 1e-4, omega = 2.0;
+  RodBatch<double> b = build_batch<double>({lying_rod({0, 0, kR}, {1, 0, 0})}, {0, 0, -kG});
+  ContactSpec spec;
+  spec.colliders = {floor_plane()};
+  spec.hardness = omega;
+  set_contact(b, spec);
+  step_n<kCollidersNoKelvinVoigt>(b, h, 3000);
+  // at rest λ = m_c g h and λ = h k (−g) with k = Ω² m_c/h²: overlap g h²/Ω²
+  const double expect = kG * h * h / (omega * omega);
+  EXPECT_NEAR(contact_stats(b).max_penetration, expect, 1e-6 * expect + 1e-15);
+  EXPECT_LT(std::abs(momentum(b, 0)[2]), 1e-12);
+}
+
+// ---- 9c Rod–rod ---------------------------------------------------------------------
+struct Collision {
+  Vec3 p0, pa, pb;
+  double e0, e_end, work;
+  bool touched;
+};
+Collision collide(double h, double omega) {
+  RodBatch<double> b = build_batch<double>(
+      {lying_rod({-0.05, 0, 0}, {1, 0, 0}), lying_rod({0.01, -0.05, 2 * kR + 0.002}, {0, 1, 0})}, {0, 0, 0});
+  for (int i = 0; i <= b.elements(1); ++i) b.set_velocity(1, i, {0, 0, -1});
+  ContactSpec spec;
+  spec.rod_rod = true;
+  spec.hardness = omega;
+  set_contact(b, spec);
+  Collision c;
+  c.p0 = momentum(b, 1);
+  c.e0 = energies<kRodContactNoKelvinVoigt>(b).total();
+  c.touched = false;
+  const int steps = int(std::lround(0.01 / h));
+  for (int i = 0; i < steps; ++i) {
+    step<kRodContactNoKelvinVoigt>(b, h);
+    c.touched = c.touched || contact_stats(b).contacts > 0;
+  }
+  c.pa = momentum(b, 0);
+  c.pb = momentum(b, 1);
+  const Energies e = energies<kRodContactNoKelvinVoigt>(b);
+  c.e_end = e.total();
+  c.work = e.contact_work;
+  return c;
+}
+
+TEST(Contact, FrictionlessRodRodCollisionConservesMomentum) {
+  const Collision c = collide(1e-4, 0.5);
+  ASSERT_TRUE(c.touched);
+  EXPECT_LT(c.pa[2], -0.1 * std::abs(c.p0[2]));  // rod 0 was pushed down (the falling rod drapes over it)
+  // the two sides of a pair take bit-identical opposite impulses: the total
+  // momentum changes only by the round-off of the node sums
+  for (int d = 0; d < 3; ++d) EXPECT_NEAR(c.pa[d] + c.pb[d], c.p0[d], 1e-15) << d;
+  EXPECT_LT(c.work, 0);
+}
+
+TEST(Contact, EnergyBudgetClosesAtFirstOrderThroughContact) {
+  // kinetic + elastic − (work of the contact impulses) stays at its start
+  // value up to the integrator's error. Contact switches on and off between
+  // steps, which makes that error first order in h (a smooth force would
+  // leave Verlet's second order): halving h halves it.
+  const Collision a = collide(1e-4, 0.5), b = collide(5e-5, 0.5);
+  const double ea = a.e_end - a.work - a.e0, eb = b.e_end - b.work - b.e0;
+  EXPECT_LT(std::abs(ea), 0.05 * a.e0);
+  EXPECT_GT(std::abs(eb / ea), 0.35);
+  EXPECT_LT(std::abs(eb / ea), 0.65);
+}
+
+TEST(Contact, RodOnTwoCrossingRodsCarriesItsWeight) {
+  const double h = 1e-4;
+  std::vector<RodSpec> rods = {lying_rod({-0.05, -0.03, kR}, {1, 0, 0}), lying_rod({-0.05, 0.03, kR}, {1, 0, 0}),
+                               lying_rod({0.005, -0.05, 3 * kR}, {0, 1, 0})};
+  for (RodSpec& r : rods) r.damping = Damping::shear_extension(0.01, 0.01);  // to come to rest
+  RodBatch<double> b = build_batch<double>(rods, {0, 0, -kG});
+  ContactSpec spec;
+  spec.colliders = {floor_plane()};
+  spec.rod_rod = true;
+  set_contact(b, spec);
+  step_n<kAllContact>(b, h, 5000);
+  // the top rod rests on the two others: its supports 2r above their centrelines
+  EXPECT_GT(b.position(2, 2)[2], 3 * kR - 0.02 * kR);
+  EXPECT_GT(b.position(2, 8)[2], 3 * kR - 0.02 * kR);
+  // and the rod–rod impulses on it carry its weight: Σ p = m g h per step
+  // (at rest to the decay of its vibration, e^{−t/τ} after 0.5 s)
+  double pz = 0;
+  for (int e = 0; e < b.elements(2); ++e) {
+    const int k = b.elem_index(2, e);
+    pz += b.contact.elem_p0[2][k] + b.contact.elem_p1[2][k];
+  }
+  EXPECT_NEAR(pz / h, rod_mass(b, 2) * kG, 1e-3 * rod_mass(b, 2) * kG);
+}
+
+// ---- 9d Determinism and what contact costs when it is off -----------------------------
+std::vector<RodSpec> tuft(int count) {
+  std::vector<RodSpec> rods;
+  for (int i = 0; i < count; ++i) {
+    const double a = 2 * std::numbers::pi * i / count;
+    RodSpec s = lying_rod({0.004 * std::cos(a), 0.004 * std::sin(a), 0.06}, {0, 0, 1}, 12, 0.05);
+    s.name = "strand " + std::to_string(i);
+    s.section = Section::circle(0.0015);
+    s.clamped_root = true;
+    s.damping = Damping::shear_extension(1e-3, 1e-3);
+    rods.push_back(s);
+  }
+  return rods;
+}
+
+std::uint64_t tuft_hash(int threads, std::int64_t* contacts = nullptr) {
+  RodBatch<double> b = build_batch<double>(tuft(12), {0, 0, -kG});
+  ContactSpec spec;
+  Collider head;
+  head.kind = ColliderKind::sphere;
+  head.center = {0.0, 0.0, 0.05};
+  head.radius = 0.008;
+  head.friction = {0.4, 0.3};
+  spec.colliders = {head};
+  spec.rod_rod = spec.self = true;
+  spec.friction = {0.3, 0.2};
+  set_contact(b, spec);
+  const Exec ex{threads};
+  std::int64_t seen = 0;
+  for (int i = 0; i < 30; ++i) {
+    step_n<kAllContact>(b, 1e-4, 20, ex);
+    seen += contact_stats(b).contacts;
+  }
+  if (contacts) *contacts = seen;
+  return state_hash(b);
+}
+
+TEST(Contact, GroomWithRodRodContactIsBitIdenticalForAnyThreadCount) {
+  std::int64_t contacts = 0;
+  const std::uint64_t one = tuft_hash(1, &contacts);
+  EXPECT_GT(contacts, 0);  // the strands touch the head and each other
+  EXPECT_EQ(one, tuft_hash(2));
+  EXPECT_EQ(one, tuft_hash(3));
+}
+
+TEST(Contact, CollidersKeepTemporalBlocking) {
+  auto run = [](bool blocked) {
+    RodBatch<double> b = build_batch<double>(tuft(12), {0, 0, -kG});
+    ContactSpec spec;
+    spec.colliders = {floor_plane(0.5, 0.4)};
+    spec.colliders[0].point = {0, 0, 0.03};
+    set_contact(b, spec);
+    if (blocked) step_n<kColliders>(b, 1e-4, 600, Exec{2});
+    else
+      for (int i = 0; i < 600; ++i) step<kColliders>(b, 1e-4);
+    return state_hash(b);
+  };
+  EXPECT_EQ(run(true), run(false));
+}
+
+TEST(Contact, EmptyContactChangesNothing) {
+  RodBatch<double> a = build_batch<double>(tuft(4), {0, 0, -kG});
+  RodBatch<double> b = build_batch<double>(tuft(4), {0, 0, -kG});
+  set_contact(b, ContactSpec{});
+  step_n<kAllTerms>(a, 1e-4, 200);
+  step_n<kColliders>(b, 1e-4, 200);
+  EXPECT_EQ(state_hash(a), state_hash(b));
+}
+
+// ---- 9e Bad input ------------------------------------------------------------------
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Contact, BadInputIsNamed) {
+  RodBatch<double> b = build_batch<double>({lying_rod({0, 0, kR}, {1, 0, 0})}, {0, 0, -kG});
+  ContactSpec spec;
+  spec.colliders = {floor_plane(-0.1, 0)};
+  EXPECT_NE(error_of([&] { set_contact(b, spec); }).find("collider 0 ('floor'), plane: friction static"),
+            std::string::npos);
+  spec.colliders = {floor_plane(0.2, 0.3)};
+  EXPECT_NE(error_of([&] { set_contact(b, spec); }).find("exceeds the static"), std::string::npos);
+  spec.colliders = {floor_plane()};
+  spec.colliders[0].point = {0, 0, 0.003};
+  const std::string inside = error_of([&] { set_contact(b, spec); });
+  EXPECT_NE(inside.find("rod 0 ('rod') node"), std::string::npos) << inside;
+  EXPECT_NE(inside.find("starts inside collider 0 ('floor')"), std::string::npos) << inside;
+  spec.colliders[0].point = {0, 0, 0};
+  spec.hardness = 0;
+  EXPECT_NE(error_of([&] { set_contact(b, spec); }).find("hardness"), std::string::npos);
+  spec.hardness = 2;
+  set_contact(b, spec);
+  EXPECT_NE(error_of([&] { step_pefrl<kColliders>(b, 1e-4); }).find("Position Verlet only"), std::string::npos);
+  RodBatch<double> none = build_batch<double>({lying_rod({0, 0, kR}, {1, 0, 0})}, {0, 0, -kG});
+  EXPECT_NE(error_of([&] { step<kColliders>(none, 1e-4); }).find("set_contact"), std::string::npos);
+}
+
+TEST(Contact, NeighbourListOverflowIsAnErrorNotADroppedContact) {
+  RodBatch<double> b = build_batch<double>(tuft(12), {0, 0, -kG});
+  ContactSpec spec;
+  spec.rod_rod = true;
+  spec.capacity = 1;
+  spec.skin = 0.01;
+  set_contact(b, spec);
+  const std::string e = error_of([&] { step<kRodContact>(b, 1e-4); });
+  EXPECT_NE(e.find("rod-rod candidates"), std::string::npos) << e;
+  EXPECT_NE(e.find("capacity"), std::string::npos) << e;
+}
+
+}  // namespace
