@@ -123,7 +123,7 @@ void check_start_outside(RodBatch<T>& b) {
       const int k = b.elem_index(r, e);
       const T rad = c.elem_radius[k];
       for (std::size_t i = 0; i < frames.size(); ++i) {
-        const Touch<T> t = collider_touch(frames[i], load3(s.node_x, k), load3(s.node_x, k + 1), rad, T(0));
+        const Touch<T> t = deepest_touch(frames[i], load3(s.node_x, k), load3(s.node_x, k + 1), rad);
         if (t.gap < T(-0.01) * rad) {
           std::ostringstream os;
           os.precision(6);
@@ -199,6 +199,8 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   c.elem_radius.resize(n, T(0));
   c.elem_rod.resize(n, -1);
   c.elem_count.resize(n, 0);
+  c.elem_count_lo.resize(n, 0);
+  c.elem_count_hi.resize(n, 0);
   c.elem_active.resize(n, 0);
   c.elem_depth.resize(n, T(0));
   c.work.resize(n, T(0));
@@ -346,7 +348,7 @@ ContactStats contact_stats(const RodBatch<T>& b) {
     for (int e = 0; e < b.elements(r); ++e) {
       const int k = b.elem_index(r, e);
       const vec3<T> x0 = load3(s.node_x, k), x1 = load3(s.node_x, k + 1);
-      for (const ColliderFrame<T>& f : frames) note(collider_touch(f, x0, x1, c.elem_radius[k], T(0)).gap, r, e);
+      for (const ColliderFrame<T>& f : frames) note(deepest_touch(f, x0, x1, c.elem_radius[k]).gap, r, e);
       if (!c.built) continue;
       for (int j = 0; j < c.neighbour_count[k]; ++j) {
         const int kb = c.neighbours[std::size_t(k) * std::size_t(c.spec.capacity) + std::size_t(j)];

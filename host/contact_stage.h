@@ -41,6 +41,8 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   v.rod_mu = c.rod_mu.data();
   v.rod_mu_own = c.rod_mu_own.data();
   v.elem_count = c.elem_count.data();
+  v.elem_count_lo = c.elem_count_lo.data();
+  v.elem_count_hi = c.elem_count_hi.data();
   for (int d = 0; d < 3; ++d) {
     v.p0[d] = c.elem_p0[d].data();
     v.p1[d] = c.elem_p1[d].data();

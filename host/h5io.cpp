@@ -226,14 +226,18 @@ const char* kEnergyNames[5] = {"kinetic", "elastic", "potential", "dissipated", 
 struct Writer::Impl {
   std::string path, tmp;
   Layout layout;
-  Id file, time, pos, dir, energy_group;
-  Id energy[5];
+  Id file, time, pos, dir, energy_group, contact_group;
+  Id energy[5], contact_work, contact_count, contact_depth;
   std::int64_t frames = 0, nodes = 0, elements = 0;
   bool closed = false;
 
   hid_t real_type() const { return layout.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE; }
   void close() {
     for (auto& e : energy) e.reset();
+    contact_work.reset();
+    contact_count.reset();
+    contact_depth.reset();
+    contact_group.reset();
     energy_group.reset();
     dir.reset();
     pos.reset();
@@ -294,6 +298,16 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
     w.energy[i] =
         create_dataset(w.energy_group.get(), kEnergyNames[i], H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
   attr_string(w.energy_group.get(), "units", "J (dissipation_rate: W)", w.tmp);
+  if (layout.contact) {
+    w.contact_work =
+        create_dataset(w.energy_group.get(), "contact_work", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
+    w.contact_group = checked(H5Gcreate2(f, "contact", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                              "cannot create /contact");
+    w.contact_count = create_dataset(w.contact_group.get(), "count", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
+    w.contact_depth =
+        create_dataset(w.contact_group.get(), "max_penetration", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
+    attr_string(w.contact_group.get(), "units", "count: contacts in touch; max_penetration: m", w.tmp);
+  }
 }
 
 Writer::~Writer() {
@@ -313,6 +327,12 @@ void Writer::append_frame(double t, const void* positions, const void* directors
   const double v[5] = {e.kinetic, e.elastic, e.potential, e.dissipated, e.dissipation_rate};
   for (int i = 0; i < 5; ++i)
     append_row(w.energy[i].get(), H5T_NATIVE_DOUBLE, w.frames, {}, &v[i], w.tmp, kEnergyNames[i]);
+  if (w.layout.contact) {
+    append_row(w.contact_work.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &e.contact_work, w.tmp, "contact_work");
+    append_row(w.contact_count.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &e.contacts, w.tmp, "contact/count");
+    append_row(w.contact_depth.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &e.max_penetration, w.tmp,
+               "contact/max_penetration");
+  }
   ++w.frames;
 }
 
@@ -526,6 +546,7 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   {
     const Id sg = checked(H5Gopen2(f, "scene", H5P_DEFAULT), H5Gclose, path, "missing group /scene");
     o.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
+    o.scene_source = read_attr_string(sg.get(), "source", path, "/scene.");
   }
   std::vector<std::vector<double>> e(5);
   for (int i = 0; i < 5; ++i) {
@@ -537,6 +558,18 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   }
   for (std::int64_t k = 0; k < r.frames; ++k)
     o.energy.push_back({e[0][k], e[1][k], e[2][k], e[3][k], e[4][k]});
+  if (H5Lexists(f, "contact", H5P_DEFAULT) > 0) {
+    const std::vector<double> w = read_vector<double>(f, "energy/contact_work", H5T_NATIVE_DOUBLE, path);
+    const std::vector<double> n = read_vector<double>(f, "contact/count", H5T_NATIVE_DOUBLE, path);
+    const std::vector<double> d = read_vector<double>(f, "contact/max_penetration", H5T_NATIVE_DOUBLE, path);
+    if (std::int64_t(w.size()) != r.frames || std::int64_t(n.size()) != r.frames || std::int64_t(d.size()) != r.frames)
+      fail(path, "/contact and /energy/contact_work must have one entry per frame (" + std::to_string(r.frames) + ")");
+    for (std::int64_t k = 0; k < r.frames; ++k) {
+      o.energy[std::size_t(k)].contact_work = w[std::size_t(k)];
+      o.energy[std::size_t(k)].contacts = n[std::size_t(k)];
+      o.energy[std::size_t(k)].max_penetration = d[std::size_t(k)];
+    }
+  }
   r.pos = open_dataset(f, "node_position", path);
   const auto dims = dataset_dims(r.pos.get());
   const std::vector<hsize_t> want{hsize_t(r.frames), hsize_t(o.nodes), 3};

@@ -139,6 +139,8 @@ void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
       timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
       timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
       if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+      // after the implicit solve: a stiff rod's velocities before it hold the
+      // unresolved stiff modes (h|ω| ≫ 1), which the contact must not see
       if constexpr (kT.colliders)
         timed(e, thread, Stage::contact, [&] { contact_stage<kT>(b, dt, frames.data() + nc * std::size_t(i), e, r); });
       timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });

@@ -139,6 +139,7 @@ class SceneRun {
     h5::Layout l;
     l.float32 = std::is_same_v<T, float>;
     l.directors = s_.sim.output_directors;
+    l.contact = s_.has_contact;
     l.node_offsets.push_back(0);
     l.element_offsets.push_back(0);
     for (int r = 0; r < b_.rod_count(); ++r) {
@@ -209,6 +210,14 @@ class SceneRun {
     gather_positions(b_, pos_);
     if (s_.sim.output_directors) gather_directors(b_, dir_);
     h5::EnergyRow row{e.kinetic, e.elastic, e.potential, dissipated_, e.dissipation};
+    if (s_.has_contact) {
+      const ContactStats cs = contact_stats(b_);
+      row.contact_work = e.contact_work;
+      row.contacts = double(cs.contacts);
+      row.max_penetration = cs.max_penetration;
+      res_.max_contacts = std::max(res_.max_contacts, cs.contacts);
+      res_.max_penetration = std::max(res_.max_penetration, cs.max_penetration);
+    }
     w.append_frame(b_.state.time, pos_.data(), dir_.data(), row);
   }
 

@@ -3,6 +3,8 @@
 // error names file, line, column and the key path.
 #include "manyrods/scene.h"
 
+#include "manyrods/mesh.h"
+
 #include "host/rng.h"
 
 #include <toml++/toml.h>
@@ -226,25 +228,18 @@ struct Root {
   std::shared_ptr<const RootMotion> motion;
 };
 
-Root parse_root(const Table& g) {
-  Root r;
-  if (!g.has("root")) return r;
-  const toml::node* n = g.get("root");
-  if (n->is_string()) {
-    r.clamped = g.string("root", {"clamped", "free"}) == "clamped";
-    return r;
-  }
-  if (!n->is_table())
-    g.fail("root", std::string("must be \"clamped\", \"free\" or a table with motion = \"oscillate\" or "
-                               "\"keyframes\", got ") + type_name(*n));
+// A rigid motion table (motion = "oscillate" | "keyframes"; angles in
+// degrees), as a driven root's `root` table and a collider's `motion`.
+std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key) {
   constexpr double deg = std::numbers::pi / 180;
+  const toml::node* n = g.get(key);
   const toml::table& t = *n->as_table();
   const std::string kind = t.contains("motion") && t.get("motion")->is_string()
                                ? t.get("motion")->as_string()->get()
                                : std::string();
   if (kind == "oscillate") {
-    const Table m = g.sub("root", {"motion", "translation_amplitude", "rotation_axis", "rotation_amplitude",
-                                   "frequency", "phase", "ramp_time", "pivot"});
+    const Table m = g.sub(key, {"motion", "translation_amplitude", "rotation_axis", "rotation_amplitude",
+                                "frequency", "phase", "ramp_time", "pivot"});
     auto o = std::make_shared<OscillatingMotion>();
     o->translation_amplitude = m.vec3("translation_amplitude", {0, 0, 0});
     o->rotation_amplitude = m.number("rotation_amplitude", 0) * deg;
@@ -256,14 +251,15 @@ Root parse_root(const Table& g) {
     o->phase = m.number("phase", 0) * deg;
     o->ramp_time = m.has("ramp_time") ? m.non_negative("ramp_time") : 0.0;
     o->pivot = m.vec3("pivot", {0, 0, 0});
-    r.motion = o;
-  } else if (kind == "keyframes") {
-    const Table m = g.sub("root", {"motion", "times", "translations", "rotations", "pivot"});
+    return o;
+  }
+  if (kind == "keyframes") {
+    const Table m = g.sub(key, {"motion", "times", "translations", "rotations", "pivot"});
     auto k = std::make_shared<KeyframedMotion>();
-    auto list = [&](const char* key) -> const toml::array& {
-      const toml::node* a = m.get(key);
-      if (!a) m.missing(key);
-      if (!a->is_array() || a->as_array()->empty()) m.fail(key, "must be a non-empty array");
+    auto list = [&](const char* lk) -> const toml::array& {
+      const toml::node* a = m.get(lk);
+      if (!a) m.missing(lk);
+      if (!a->is_array() || a->as_array()->empty()) m.fail(lk, "must be a non-empty array");
       return *a->as_array();
     };
     const toml::array& times = list("times");
@@ -299,15 +295,135 @@ Root parse_root(const Table& g) {
       }
     }
     k->pivot = m.vec3("pivot", {0, 0, 0});
-    r.motion = k;  // checked above, entry by entry with its line (KeyframedMotion::validate's checks)
-  } else {
-    const toml::node* mk = t.get("motion");
-    if (!mk) g.ctx.fail(*n, g.key("root.motion"), "missing: a driven root needs motion = \"oscillate\" or \"keyframes\"");
-    g.ctx.fail(*mk, g.key("root.motion"),
-               mk->is_string() ? "\"" + kind + "\" is not one of \"oscillate\", \"keyframes\""
-                               : std::string("must be a string, got ") + type_name(*mk));
+    return k;  // checked above, entry by entry with its line (KeyframedMotion::validate's checks)
+  }
+  const toml::node* mk = t.get("motion");
+  if (!mk) g.ctx.fail(*n, g.key(std::string(key) + ".motion"), "missing: a motion needs motion = \"oscillate\" or \"keyframes\"");
+  g.ctx.fail(*mk, g.key(std::string(key) + ".motion"),
+             mk->is_string() ? "\"" + kind + "\" is not one of \"oscillate\", \"keyframes\""
+                             : std::string("must be a string, got ") + type_name(*mk));
+}
+
+Root parse_root(const Table& g) {
+  Root r;
+  if (!g.has("root")) return r;
+  const toml::node* n = g.get("root");
+  if (n->is_string()) {
+    r.clamped = g.string("root", {"clamped", "free"}) == "clamped";
+    return r;
+  }
+  if (!n->is_table())
+    g.fail("root", std::string("must be \"clamped\", \"free\" or a table with motion = \"oscillate\" or "
+                               "\"keyframes\", got ") + type_name(*n));
+  r.motion = parse_motion(g, "root");
+  return r;
+}
+
+// ---- friction, [[colliders]], [contact] (docs/contact.md) ----------------------
+
+Friction parse_friction(const Table& g) {
+  const Table f = g.sub("friction", {"static", "kinetic", "static_axial", "kinetic_axial"});
+  Friction r;
+  r.static_coefficient = f.non_negative("static");
+  r.kinetic_coefficient = f.non_negative("kinetic");
+  if (r.kinetic_coefficient > r.static_coefficient)
+    f.fail("kinetic", "must not exceed static (" + num(r.static_coefficient) + "), got " + num(r.kinetic_coefficient));
+  if (f.has("static_axial") != f.has("kinetic_axial"))
+    f.fail(f.has("static_axial") ? "static_axial" : "kinetic_axial", "give static_axial and kinetic_axial together");
+  if (f.has("static_axial")) {
+    r.static_axial = f.non_negative("static_axial");
+    r.kinetic_axial = f.non_negative("kinetic_axial");
+    if (r.kinetic_axial > r.static_axial)
+      f.fail("kinetic_axial", "must not exceed static_axial (" + num(r.static_axial) + ")");
   }
   return r;
+}
+
+// The scene file's directory, for paths in it.
+std::string scene_dir(const std::string& source) {
+  const std::size_t i = source.find_last_of('/');
+  return i == std::string::npos ? std::string() : source.substr(0, i + 1);
+}
+
+// What every collider kind has: name, friction, motion.
+void parse_collider_common(const Table& t, Collider& c) {
+  c.name = t.has("name") ? t.text("name") : t.path;
+  if (t.has("friction")) c.friction = parse_friction(t);
+  if (!t.has("motion")) return;
+  if (!t.get("motion")->is_table())
+    t.fail("motion", std::string("must be a table with motion = \"oscillate\" or \"keyframes\", got ") +
+                         type_name(*t.get("motion")));
+  c.motion = parse_motion(t, "motion");
+  try {
+    c.motion->validate();
+  } catch (const InputError& e) {
+    t.fail("motion", e.what());
+  }
+}
+
+Collider parse_collider(const Ctx& ctx, const toml::table& ct, std::size_t i) {
+  const std::string path = "colliders." + std::to_string(i);
+  const toml::node* kn = ct.get("kind");
+  if (!kn) throw SceneError(ctx.where(ct) + path + ".kind: missing (\"plane\", \"sphere\", \"capsule\" or \"mesh\")");
+  const std::string kind = kn->is_string() ? kn->as_string()->get() : std::string();
+  Collider c;
+  if (kind == "plane") {
+    const Table t(ctx, ct, path, {"name", "kind", "point", "normal", "friction", "motion"});
+    c.kind = ColliderKind::plane;
+    c.point = t.vec3("point", {0, 0, 0});
+    c.normal = t.nonzero_vec3("normal", {0, 0, 1});
+    parse_collider_common(t, c);
+  } else if (kind == "sphere") {
+    const Table t(ctx, ct, path, {"name", "kind", "center", "radius", "friction", "motion"});
+    c.kind = ColliderKind::sphere;
+    c.center = t.vec3("center", {0, 0, 0});
+    c.radius = t.positive("radius");
+    parse_collider_common(t, c);
+  } else if (kind == "capsule") {
+    const Table t(ctx, ct, path, {"name", "kind", "a", "b", "radius", "friction", "motion"});
+    c.kind = ColliderKind::capsule;
+    c.a = t.vec3("a");
+    c.b = t.vec3("b");
+    c.radius = t.positive("radius");
+    parse_collider_common(t, c);
+  } else if (kind == "mesh") {
+    const Table t(ctx, ct, path, {"name", "kind", "file", "resolution", "friction", "motion"});
+    c.kind = ColliderKind::mesh;
+    const std::string file = t.text("file");
+    const int res = int(t.has("resolution") ? t.integer("resolution", 8, 512) : 64);
+    const std::string full = !file.empty() && file[0] == '/' ? file : scene_dir(ctx.source) + file;
+    try {
+      c.grid = load_mesh_grid(full, res);
+    } catch (const InputError& e) {
+      t.fail("file", e.what());
+    }
+    parse_collider_common(t, c);
+  } else {
+    ctx.fail(*kn, path + ".kind", "must be one of \"plane\", \"sphere\", \"capsule\", \"mesh\"");
+  }
+  return c;
+}
+
+void parse_contact(const Ctx& ctx, const Table& top, Scene& sc) {
+  if (const toml::node* cn = top.get("colliders")) {
+    const toml::array* a = cn->as_array();
+    if (!a || !a->is_array_of_tables()) ctx.fail(*cn, "colliders", "must be one or more [[colliders]] tables");
+    for (std::size_t i = 0; i < a->size(); ++i) sc.contact.colliders.push_back(parse_collider(ctx, *a->get(i)->as_table(), i));
+  }
+  if (top.has("contact")) {
+    const Table t = top.sub("contact", {"rod_rod", "self", "friction", "hardness", "damping_ratio", "skin", "capacity"});
+    sc.contact.rod_rod = t.boolean("rod_rod", false);
+    sc.contact.self = t.boolean("self", false);
+    if (t.has("friction")) sc.contact.friction = parse_friction(t);
+    if (t.has("hardness")) sc.contact.hardness = t.positive("hardness");
+    if (t.has("damping_ratio")) sc.contact.damping_ratio = t.non_negative("damping_ratio");
+    if (t.has("skin")) sc.contact.skin = t.non_negative("skin");
+    if (t.has("capacity")) sc.contact.capacity = int(t.integer("capacity", 1, 4096));
+  }
+  sc.has_contact = !sc.contact.colliders.empty() || sc.contact.rod_rod || sc.contact.self;
+  if (sc.has_contact && sc.sim.integrator != Integrator::position_verlet)
+    throw SceneError(sc.source + ": simulation.integrator: contact ([[colliders]], [contact]) is stepped by "
+                                 "Position Verlet only: use integrator = \"position_verlet\"");
 }
 
 struct Placement {
@@ -701,6 +817,10 @@ Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const
   parse_group_ends(g, p);
   p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
   p.stiff = g.boolean("stiff", false);
+  if (g.has("friction")) {
+    p.g.has_friction = true;
+    p.g.friction = parse_friction(g);
+  }
   if (p.stiff && sim.integrator != Integrator::position_verlet)
     g.fail("stiff", "stiff rods (shear, stretch and twist implicit) need integrator = \"position_verlet\"");
   if (g.has("terms")) {
@@ -756,7 +876,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   Scene sc;
   sc.source = source;
   sc.text = std::string(text);
-  const Table top(ctx, root, "", {"title", "simulation", "rods"});
+  const Table top(ctx, root, "", {"title", "simulation", "rods", "colliders", "contact"});
   if (top.has("title")) (void)top.text("title");
   if (!top.has("simulation")) throw SceneError(source + ": simulation: missing table [simulation]");
   sc.sim = parse_simulation(top);
@@ -774,7 +894,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     const Table g(ctx, gt, "rods." + std::to_string(gi),
                   {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
                    "section", "material", "damping", "rest_curvature", "root", "tip_force",
-                   "initial_tip_force", "terms", "shear_stretch_scale", "stiff"});
+                   "initial_tip_force", "terms", "shear_stretch_scale", "stiff", "friction"});
     Pending p = parse_group(g, gt, gi, sc.sim);
     slots += std::int64_t(p.g.count) * (p.elements + 2);
     elements += std::int64_t(p.g.count) * p.elements;
@@ -783,6 +903,12 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     pending.push_back(std::move(p));
   }
   for (std::size_t gi = 0; gi < pending.size(); ++gi) expand_group(sc, pending[gi], gi);
+  parse_contact(ctx, top, sc);
+  for (std::size_t r = 0; r < sc.rods.size() && sc.has_contact; ++r) {
+    const RodGroup& g = sc.groups[sc.rod_group[r]];
+    sc.contact.rod_friction.push_back(g.friction);
+    sc.contact.rod_has_friction.push_back(g.has_friction ? 1 : 0);
+  }
   return sc;
 }
 

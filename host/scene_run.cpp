@@ -22,9 +22,30 @@ constexpr Terms terms_of() {
   return t;
 }
 
-// Calls f.template operator()<kT>() with the Terms the choice selects.
+template <bool kKV, bool kColliders, bool kRods>
+constexpr Terms contact_terms_of() {
+  Terms t;
+  t.kelvin_voigt = kKV;
+  t.colliders = kColliders;
+  t.rod_contact = kRods;
+  return t;
+}
+
+// Calls f.template operator()<kT>() with the Terms the choice selects
+// (contact: the library's contact Terms, which have gravity on; a batch
+// without the gravity term has zero gravity then, build_scene_batch).
 template <class F>
-decltype(auto) with_terms(const StepChoice& c, F&& f) {
+decltype(auto) with_terms(const StepChoice& c, F&& f, bool contact = true) {
+  if (contact && (c.colliders || c.rod_contact)) {
+    if (c.kelvin_voigt) {
+      if (!c.rod_contact) return f.template operator()<contact_terms_of<true, true, false>()>();
+      if (!c.colliders) return f.template operator()<contact_terms_of<true, false, true>()>();
+      return f.template operator()<contact_terms_of<true, true, true>()>();
+    }
+    if (!c.rod_contact) return f.template operator()<contact_terms_of<false, true, false>()>();
+    if (!c.colliders) return f.template operator()<contact_terms_of<false, false, true>()>();
+    return f.template operator()<contact_terms_of<false, true, true>()>();
+  }
   if (c.kelvin_voigt) {
     if (c.gravity) return f.template operator()<terms_of<true, true>()>();
     return f.template operator()<terms_of<true, false>()>();
@@ -86,7 +107,23 @@ StepChoice step_choice(const Scene& s) {
   // differ get gravity as dead node loads instead (build_scene_batch)
   c.gravity = has_gravity(s) && std::all_of(s.groups.begin(), s.groups.end(),
                                              [](const RodGroup& g) { return g.terms.gravity; });
+  c.colliders = !s.contact.colliders.empty();
+  c.rod_contact = s.contact.rod_rod || s.contact.self;
   return c;
+}
+
+// The scene's colliders and contact switches (after the initial state: a rod
+// may not start inside a collider). The contact Terms have gravity on: a
+// batch whose gravity is carried as dead loads gets zero gravity.
+template <class T>
+void give_contact(const Scene& s, const StepChoice& choice, RodBatch<T>& b) {
+  if (!s.has_contact) return;
+  if (!choice.gravity) b.set_gravity({0, 0, 0});
+  try {
+    set_contact(b, s.contact);
+  } catch (const InputError& e) {
+    throw SceneError(s.source + ": " + e.what());
+  }
 }
 
 template <class T>
@@ -121,7 +158,10 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
       b.set_node_force(r, n, g.tip_force);
     }
   }
-  if (!initial_state) return b;
+  if (!initial_state) {
+    give_contact(s, choice, b);
+    return b;
+  }
   std::map<std::string, RodBatch<double>> solved;
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodGroup& g = s.groups[s.rod_group[r]];
@@ -154,6 +194,7 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
     for (int i = 0; i < 9; ++i)
       b.state.elem_Q[i][b.elem_index(r, n)] = T(one.state.elem_Q[i][one.elem_index(0, n)]);
   }
+  give_contact(s, choice, b);
   return b;
 }
 
@@ -161,7 +202,7 @@ template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b) {
   if (!s.sim.dt_auto) return s.sim.dt;
   const StepChoice c = step_choice(s);
-  const StableDt sd = with_terms(c, [&]<Terms kT>() { return stable_dt<kT>(b); });
+  const StableDt sd = with_terms(c, [&]<Terms kT>() { return stable_dt<kT>(b); }, false);  // contact does not limit it
   if (!std::isfinite(sd.elastic) || !(sd.elastic > 0))
     throw SceneError(s.source +
                      ": dt = \"auto\": stable_dt gives no finite step (no stiffness?); give dt in seconds");
@@ -171,7 +212,9 @@ double scene_dt(const Scene& s, const RodBatch<T>& b) {
 template <class T>
 void advance_scene(RodBatch<T>& b, const StepChoice& c, T dt, std::int64_t steps, const Exec& ex) {
   with_terms(c, [&]<Terms kT>() {
-    if (c.integrator == Integrator::pefrl)
+    if constexpr (kT.colliders || kT.rod_contact)
+      advance<kT, Viscous::implicit, Integrator::position_verlet>(b, dt, steps, ex);
+    else if (c.integrator == Integrator::pefrl)
       advance<kT, Viscous::implicit, Integrator::pefrl>(b, dt, steps, ex);
     else
       advance<kT, Viscous::implicit, Integrator::position_verlet>(b, dt, steps, ex);

@@ -178,6 +178,20 @@ Sweep make_sweep(const std::string& text, const std::string& source, std::vector
       throw SceneError(os.str());
     }
     if (i == 0) sw.scene.sim = s.sim;
+    // colliders touch each variation's rods alone; rod–rod contact would let
+    // the variations (one batch, the same place) touch each other
+    if (s.contact.rod_rod || s.contact.self)
+      throw SceneError(source + ": contact.rod_rod/self: a sweep runs its variations in one batch, where they "
+                                "would touch each other; sweep this scene without rod-rod contact, or run each "
+                                "variation with `manyrods run`");
+    if (s.has_contact) {
+      const std::vector<Friction> rf = sw.scene.contact.rod_friction;
+      const std::vector<char> rh = sw.scene.contact.rod_has_friction;
+      sw.scene.contact = s.contact;
+      sw.scene.contact.rod_friction.insert(sw.scene.contact.rod_friction.begin(), rf.begin(), rf.end());
+      sw.scene.contact.rod_has_friction.insert(sw.scene.contact.rod_has_friction.begin(), rh.begin(), rh.end());
+      sw.scene.has_contact = true;
+    }
     const int group0 = int(sw.scene.groups.size()), rod0 = int(sw.scene.rods.size());
     std::string suffix = std::to_string(i);
     suffix.insert(suffix.begin(), '@');  // not "@" + …: GCC 12 false -Wrestrict (bug 105329)

@@ -6,14 +6,15 @@
 // is the point of the centreline q = (1 − s) x_k + s x_{k+1} closest to the
 // partner, the unit normal n from the partner towards the rod, and the gap
 // g = distance − radii (< 0: overlap):
-//   plane (point P, normal n): d_i = n·(x_i − P) − r at both ends; the point
-//     weights the ends by how far they are inside the contact range δ,
-//     s = w₁/(w₀ + w₁), w_i = max(0, δ − d_i) (continuous as the element
-//     tilts; s = ½ for an element lying flat), g = (1 − s) d₀ + s d₁;
+//   plane (point P, normal n): one contact at each end, g_i = n·(x_i − P) − r
+//     (an element lying on it is a line contact carried by both nodes; a
+//     single point weighted between the ends left a tilted end's overlap
+//     unresisted);
 //   sphere (c, R): s from projecting c on the segment, g = |q − c| − R − r;
 //   capsule (a–b, R) and another element: the closest points of two segments
 //     (closest_segments), g = |q − q'| − R − r;
-//   mesh (grid φ): the deepest of s = 0, ½, 1, g = φ(q) − r, n = ∇φ/|∇φ|.
+//   mesh (grid φ): one contact at each end, and one at s = ½ where it is
+//     deeper than both, g = φ(q) − r, n = ∇φ/|∇φ|.
 //
 // The contact law (docs/contact.md "The contact law"). With the contact's
 // effective mass m_c (below), the step h, the hardness Ω and the damping
@@ -41,7 +42,8 @@
 // Effective mass and mass splitting (Jacobi). Every contact is solved with
 // the partners frozen at the stage's start, and all impulses are applied
 // together. A node touched by c contacts lends each 1/c of its mass
-// (c = the contacts in range of its two elements), an element 1/c of its
+// (c = the contacts in range of its two elements that act on it: those at
+// s < 1 of element k and at s > 0 of element k−1), an element 1/c of its
 // inertia; then the impulses of contacts sharing a node add up to what one
 // contact with the whole mass would give (a rod lying flat stops exactly):
 //   1/m_c = Σ_sides [(1 − s)² c_k/m_k + s² c_{k+1}/m_{k+1}].
@@ -72,6 +74,8 @@ struct ContactView {
   const T* rod_mu = nullptr;  // [4 × rods]
   const int* rod_mu_own = nullptr;
   int* elem_count = nullptr;
+  int* elem_count_lo = nullptr;  // of them on node k (s < 1)
+  int* elem_count_hi = nullptr;  // on node k+1 (s > 0)
   T* p0[3] = {};
   T* p1[3] = {};
   T* l[3] = {};
@@ -83,7 +87,7 @@ struct ContactView {
   int capacity = 0;
   const int* rod_exclusion = nullptr;  // [rods] self contact skips |i − j| ≤ this
   bool rod_rod = false, self = false;
-  T hardness = 2, damping_ratio = 0;
+  T hardness = 4, damping_ratio = 0;
 };
 
 template <class T>
@@ -202,54 +206,78 @@ MANYRODS_HD inline T grid_distance(const ColliderFrame<T>& c, vec3<T> X, vec3<T>
   return phi;
 }
 
-// Where the element x0 → x1 (radius r) touches collider c; delta: the
-// contact range (for the plane's weights).
+// Where the element x0 → x1 (radius r) touches collider c: up to 3 contacts
+// into out[], their number returned.
+//   plane: one at each end (s = 0, 1): an element lying on the plane is a
+//     line contact, carried by its two nodes;
+//   sphere, capsule: the closest point;
+//   mesh: one at each end, and the middle when it is deeper than both (a
+//     bump of the surface between the nodes).
 template <class T>
-MANYRODS_HD inline Touch<T> collider_touch(const ColliderFrame<T>& c, vec3<T> x0, vec3<T> x1, T r, T delta) {
+MANYRODS_HD inline int collider_touches(const ColliderFrame<T>& c, vec3<T> x0, vec3<T> x1, T r, Touch<T> out[3]) {
   using namespace contact_detail;
-  Touch<T> out;
   const vec3<T> e = x1 - x0;
   if (c.kind == int(ColliderKind::plane)) {
     const vec3<T> n = v3(c.n), p = v3(c.p);
-    const T d0 = dot(n, x0 - p) - r, d1 = dot(n, x1 - p) - r;
-    const T w0 = delta - d0 > T(0) ? delta - d0 : T(0), w1 = delta - d1 > T(0) ? delta - d1 : T(0);
-    if (w0 + w1 <= T(0)) return out;
-    out.s = w1 / (w0 + w1);
-    out.gap = d0 + out.s * (d1 - d0);
-    out.n = n;
-  } else if (c.kind == int(ColliderKind::sphere)) {
+    out[0].s = T(0);
+    out[0].gap = dot(n, x0 - p) - r;
+    out[0].n = n;
+    out[1].s = T(1);
+    out[1].gap = dot(n, x1 - p) - r;
+    out[1].n = n;
+    return 2;
+  }
+  if (c.kind == int(ColliderKind::sphere)) {
     const vec3<T> p = v3(c.p);
     const T ee = dot(e, e);
-    out.s = ee > T(0) ? clamp01(dot(p - x0, e) / ee) : T(0);
-    const vec3<T> d = x0 + out.s * e - p;
+    out[0].s = ee > T(0) ? clamp01(dot(p - x0, e) / ee) : T(0);
+    const vec3<T> d = x0 + out[0].s * e - p;
     const T len = norm(d);
-    out.gap = len - c.radius - r;
-    out.n = unit_or(d, len, any_orthogonal(e));
-  } else if (c.kind == int(ColliderKind::capsule)) {
+    out[0].gap = len - c.radius - r;
+    out[0].n = unit_or(d, len, any_orthogonal(e));
+    return 1;
+  }
+  if (c.kind == int(ColliderKind::capsule)) {
     const vec3<T> a = v3(c.p), ab = v3(c.q) - a;
     T s, t;
     closest_segments(x0, e, a, ab, s, t);
     const vec3<T> d = (x0 + s * e) - (a + t * ab);
     const T len = norm(d);
-    out.s = s;
-    out.gap = len - c.radius - r;
-    out.n = unit_or(d, len, any_orthogonal(e));
-  } else {  // mesh: the deepest of the ends and the middle
-    const mat3<T> R = {{c.R[0], c.R[1], c.R[2], c.R[3], c.R[4], c.R[5], c.R[6], c.R[7], c.R[8]}};
-    const vec3<T> cc = v3(c.c);
-    for (int i = 0; i < 3; ++i) {
-      const T s = T(0.5) * T(i);
-      vec3<T> g;
-      const T phi = grid_distance(c, mul_transpose(R, x0 + s * e - cc), g);
-      if (phi - r < out.gap) {
-        const vec3<T> gl = mul(R, g);
-        out.gap = phi - r;
-        out.s = s;
-        out.n = unit_or(gl, norm(gl), vec3<T>{T(0), T(0), T(1)});
-      }
-    }
+    out[0].s = s;
+    out[0].gap = len - c.radius - r;
+    out[0].n = unit_or(d, len, any_orthogonal(e));
+    return 1;
   }
-  return out;
+  const mat3<T> R = {{c.R[0], c.R[1], c.R[2], c.R[3], c.R[4], c.R[5], c.R[6], c.R[7], c.R[8]}};
+  const vec3<T> cc = v3(c.c);
+  Touch<T> t[3];
+  for (int i = 0; i < 3; ++i) {
+    const T s = i == 2 ? T(0.5) : T(i);
+    vec3<T> g;
+    const T phi = grid_distance(c, mul_transpose(R, x0 + s * e - cc), g);
+    const vec3<T> gl = mul(R, g);
+    t[i].s = s;
+    t[i].gap = phi - r;
+    t[i].n = unit_or(gl, norm(gl), vec3<T>{T(0), T(0), T(1)});
+  }
+  out[0] = t[0];
+  out[1] = t[1];
+  if (t[2].gap < t[0].gap && t[2].gap < t[1].gap) {
+    out[2] = t[2];
+    return 3;
+  }
+  return 2;
+}
+
+// The deepest of them (for checks and statistics).
+template <class T>
+MANYRODS_HD inline Touch<T> deepest_touch(const ColliderFrame<T>& c, vec3<T> x0, vec3<T> x1, T r) {
+  Touch<T> t[3];
+  const int n = collider_touches(c, x0, x1, r, t);
+  Touch<T> best = t[0];
+  for (int i = 1; i < n; ++i)
+    if (t[i].gap < best.gap) best = t[i];
+  return best;
 }
 
 // The velocity of collider c's body at lab point p.
@@ -279,7 +307,8 @@ MANYRODS_HD inline ContactSide<T> element_side(int k, T s, vec3<T> rho, const Mo
   o.k = k;
   o.s = s;
   o.rho = rho;
-  const T c0 = T(cv.elem_count[k - 1] + cv.elem_count[k]), c1 = T(cv.elem_count[k] + cv.elem_count[k + 1]);
+  // the contacts on node k: element k−1's on its far node, element k's on its near one
+  const T c0 = T(cv.elem_count_hi[k - 1] + cv.elem_count_lo[k]), c1 = T(cv.elem_count_hi[k] + cv.elem_count_lo[k + 1]);
   const T ce = T(cv.elem_count[k] > 0 ? cv.elem_count[k] : 1);
   o.w = (T(1) - s) * (T(1) - s) * m.node_inv_mass[k] * (c0 > T(0) ? c0 : T(1)) +
         s * s * m.node_inv_mass[k + 1] * (c1 > T(0) ? c1 : T(1));
@@ -419,8 +448,13 @@ MANYRODS_HD inline T max_speed(const ConstStateView<T>& st, int k) {
 template <class T>
 struct Accumulator {
   vec3<T> p0{T(0), T(0), T(0)}, p1{T(0), T(0), T(0)}, l{T(0), T(0), T(0)};
-  int count = 0, active = 0;
+  int count = 0, count_lo = 0, count_hi = 0, active = 0;  // count_lo/hi: of them on node k / k+1
   T depth = T(0);
+  MANYRODS_HD void count_in(T s) {
+    ++count;
+    if (s < T(1)) ++count_lo;
+    if (s > T(0)) ++count_hi;
+  }
   MANYRODS_HD void add(T s, vec3<T> p, vec3<T> rho, vec3<T> d3, vec3<T> pt, T lam, T gap) {
     p0 = p0 + (T(1) - s) * p;
     p1 = p1 + s * p;
@@ -457,20 +491,25 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
         const ColliderFrame<T>& c = cv.colliders[i];
         const T vb0 = norm(collider_velocity(c, x0)), vb1 = norm(collider_velocity(c, x1));
         const T delta = reach * (va + (vb0 > vb1 ? vb0 : vb1)) + T(0.5) * r;
-        const Touch<T> t = collider_touch(c, x0, x1, r, delta);
-        if (!(t.gap < delta)) continue;
-        ++acc.count;
-        if constexpr (kImpulse) {
-          const vec3<T> rho = (-r) * t.n;
-          const ContactSide<T> a = element_side(k, t.s, rho, m, st, cv);
-          ContactSide<T> b;
-          b.v = collider_velocity(c, x0 + t.s * e + rho);
-          T mu[4];
-          pair_mu(cv.rod_mu + 4 * rod, cv.rod_mu_own[rod] != 0, c.mu, true, mu);
-          T lam;
-          vec3<T> pt;
-          const vec3<T> p = contact_impulse(a, b, t.n, t.gap, mu, axis, h, cv.hardness, cv.damping_ratio, lam, pt);
-          acc.add(t.s, p, rho, a.d3, pt, lam, t.gap);
+        Touch<T> touch[3];
+        const int nt = collider_touches(c, x0, x1, r, touch);
+        for (int j = 0; j < nt; ++j) {
+          const Touch<T>& t = touch[j];
+          if (!(t.gap < delta)) continue;
+          acc.count_in(t.s);
+          if constexpr (kImpulse) {
+            const vec3<T> rho = (-r) * t.n;
+            const ContactSide<T> a = element_side(k, t.s, rho, m, st, cv);
+            ContactSide<T> b;
+            b.v = collider_velocity(c, x0 + t.s * e + rho);
+            T mu[4];
+            pair_mu(cv.rod_mu + 4 * rod, cv.rod_mu_own[rod] != 0, c.mu, true, mu);
+            T lam;
+            vec3<T> pt;
+            const vec3<T> p =
+                contact_impulse(a, b, t.n, t.gap, mu, axis, h, cv.hardness, cv.damping_ratio, lam, pt);
+            acc.add(t.s, p, rho, a.d3, pt, lam, t.gap);
+          }
         }
       }
     }
@@ -489,7 +528,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
         const T gap = len - ra - rb;
         const T delta = reach * (max_speed(st, lo) + max_speed(st, hi)) + T(0.5) * (ra + rb);
         if (!(gap < delta)) continue;
-        ++acc.count;
+        acc.count_in(k == lo ? s : t);
         if constexpr (kImpulse) {
           const vec3<T> n = unit_or(d, len, any_orthogonal(ae));
           const ContactSide<T> sa = element_side(lo, s, (-ra) * n, m, st, cv);
@@ -508,6 +547,8 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
   }
   if constexpr (!kImpulse) {
     cv.elem_count[k] = acc.count;
+    cv.elem_count_lo[k] = acc.count_lo;
+    cv.elem_count_hi[k] = acc.count_hi;
   } else {
     store3(cv.p0, k, acc.p0);
     store3(cv.p1, k, acc.p1);

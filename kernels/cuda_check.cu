@@ -3,6 +3,7 @@
 // off. It exists so that host-only code (STL, exceptions, Eigen, allocation)
 // cannot creep into kernels/: such code fails to compile here. Running the
 // kernels on a GPU is a later step; nothing here is launched.
+#include "kernels/contact.h"
 #include "kernels/energy.h"
 #include "kernels/viscous_implicit.h"
 #include "kernels/viscous_implicit_lanes.h"
@@ -76,6 +77,17 @@ __global__ void viscous_lanes_kernel(int groups, const int* first, const int* ce
   viscous_implicit_lanes<kT, kLanes>(first + g * kLanes, cells + g * kLanes, h, stiff_h + g * kLanes, m, s, mine);
 }
 
+// Contact (kernels/contact.h): one thread per slot for each of its three
+// passes (count, impulses, apply), as host/contact_stage.h runs them.
+template <bool kColliders, bool kRods, class T>
+__global__ void contact_kernel(int slots, int pass, T h, ModelView<T> m, StateView<T> s, ContactView<T> cv) {
+  const int k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= slots) return;
+  if (pass == 0) element_contacts<kColliders, kRods, false>(k, h, m, as_const(s), cv);
+  else if (pass == 1) element_contacts<kColliders, kRods, true>(k, h, m, as_const(s), cv);
+  else apply_contact(k, m, s, cv);
+}
+
 template <Terms kT, class T>
 void instantiate() {
   constexpr unsigned mask = terms_mask(kT);
@@ -87,6 +99,8 @@ void instantiate() {
   (void)&viscous_kernel<mask, T>;
   (void)&viscous_lanes_kernel<mask, 8, T>;
   (void)&viscous_lanes_kernel<mask, 16, T>;
+  (void)&contact_kernel<true, true, T>;
+  (void)&contact_kernel<true, false, T>;
 }
 
 }  // namespace

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "cases.h"
-#include "manyrods/scene.h"
+#include "manyrods/mesh.h"
 #include "manyrods/scene.h"
 #include "manyrods/advanced.h"
 
@@ -448,4 +448,127 @@ TEST(SceneErrors, UnreadableFile) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/scene.toml: cannot read"), std::string::npos)
         << e.what();
   }
+}
+
+// ---- contact keys (docs/scenes.md "Contact", docs/contact.md) -----------------------
+TEST(Scene, ContactScenesLoadAndStartOutsideTheirColliders) {
+  for (const char* f : {"hair_groom.toml", "hair_turn.toml", "cable_pile.toml"}) {
+    const Scene s = load_scene(kScenes + "/" + f);
+    ASSERT_TRUE(s.has_contact) << f;
+    EXPECT_TRUE(s.contact.rod_rod) << f;
+    EXPECT_EQ(s.contact.colliders.size(), 1u) << f;
+    EXPECT_NO_THROW((void)build_scene_batch<double>(s)) << f;  // no rod starts inside a collider
+    const StepChoice c = step_choice(s);
+    EXPECT_TRUE(c.colliders && c.rod_contact) << f;
+  }
+  const Scene turn = load_scene(kScenes + "/hair_turn.toml");
+  ASSERT_TRUE(turn.contact.colliders[0].motion);  // the head turns with the scalp
+  const Pose p = turn.contact.colliders[0].motion->at(1.0), q = turn.rods[0].root_motion->at(1.0);
+  for (int i = 0; i < 9; ++i) EXPECT_EQ(p.rotation[i], q.rotation[i]);
+}
+
+TEST(Scene, ContactKeysReachTheSpec) {
+  const Scene s = parse_scene(scene_text("friction = { static = 0.5, kinetic = 0.25 }\n") +
+                                  "\n[[colliders]]\nkind = \"capsule\"\na = [0.0, 0.1, 0.0]\nb = [0.0, 0.1, 0.3]\n"
+                                  "radius = 0.02\nfriction = { static = 0.2, kinetic = 0.1, static_axial = 0.6, "
+                                  "kinetic_axial = 0.5 }\n\n[contact]\nself = true\nhardness = 3.0\n"
+                                  "damping_ratio = 0.1\ncapacity = 8\n",
+                              "ok.toml");
+  ASSERT_EQ(s.contact.colliders.size(), 1u);
+  EXPECT_EQ(s.contact.colliders[0].kind, ColliderKind::capsule);
+  EXPECT_EQ(s.contact.colliders[0].friction.kinetic_axial, 0.5);
+  EXPECT_TRUE(s.contact.self);
+  EXPECT_FALSE(s.contact.rod_rod);
+  EXPECT_EQ(s.contact.hardness, 3.0);
+  EXPECT_EQ(s.contact.capacity, 8);
+  ASSERT_EQ(s.contact.rod_friction.size(), 1u);
+  EXPECT_TRUE(s.contact.rod_has_friction[0]);
+  EXPECT_EQ(s.contact.rod_friction[0].kinetic_coefficient, 0.25);
+}
+
+TEST(SceneErrors, ContactKeys) {
+  const std::string base = scene_text();
+  expect_error(base + "\n[[colliders]]\nkind = \"torus\"\n", {"bad.toml:", "colliders.0.kind", "\"sphere\""});
+  expect_error(base + "\n[[colliders]]\nkind = \"sphere\"\nradius = -1.0\n", {"colliders.0.radius", "must be > 0"});
+  expect_error(base + "\n[[colliders]]\nkind = \"plane\"\nfriction = { static = -0.1, kinetic = 0.0 }\n",
+               {"colliders.0.friction.static", ">= 0"});
+  expect_error(base + "\n[[colliders]]\nkind = \"plane\"\nfriction = { static = 0.1, kinetic = 0.3 }\n",
+               {"colliders.0.friction.kinetic", "must not exceed static"});
+  expect_error(base + "\n[[colliders]]\nkind = \"sphere\"\nradius = 0.1\ncentre = [0.0, 0.0, 0.0]\n",
+               {"colliders.0.centre", "unknown key"});
+  expect_error(base + "\n[[colliders]]\nkind = \"mesh\"\nfile = \"no-such-head.obj\"\n",
+               {"colliders.0.file", "no-such-head.obj"});
+  expect_error(base + "\n[contact]\ncapacity = 0\n", {"contact.capacity"});
+  expect_error(scene_text("", "integrator = \"pefrl\"\n") + "\n[contact]\nrod_rod = true\n",
+               {"Position Verlet only"});
+  // a rod that starts inside a collider: named with its node, at build time
+  const Scene in = parse_scene(base + "\n[[colliders]]\nname = \"ball\"\nkind = \"sphere\"\ncenter = [0.0, 0.0, 0.15]\n"
+                                      "radius = 0.05\n",
+                               "inside.toml");
+  try {
+    (void)build_scene_batch<double>(in);
+    ADD_FAILURE() << "no error for a rod inside a collider";
+  } catch (const SceneError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("inside.toml: contact: rod 0 ('beam[0]') node"), std::string::npos) << m;
+    EXPECT_NE(m.find("collider 0 ('ball'), sphere"), std::string::npos) << m;
+  }
+}
+
+// ---- mesh colliders (include/manyrods/mesh.h) ------------------------------------------
+TEST(Scene, MeshColliderIsASignedDistanceGridOfTheObj) {
+  const auto g = load_mesh_grid(std::string(MANYRODS_TEST_DATA) + "/head.obj", 64);
+  ASSERT_TRUE(g);
+  EXPECT_EQ(g->triangles.size(), 3u * 320u);
+  // an ellipsoid with semi-axes 0.075, 0.09, 0.1 m, faceted (an icosphere
+  // subdivided twice: its flat faces lie inside the ellipsoid by up to
+  // ~2 % of the radius): φ at the centre ≈ −(smallest semi-axis), outside
+  // points positive by their distance to the surface, to the facets and the
+  // grid's trilinear error (spacing 3.2 mm)
+  ColliderFrame<double> f;
+  f.kind = int(ColliderKind::mesh);
+  f.phi = g->phi.data();
+  f.nx = g->n[0];
+  f.ny = g->n[1];
+  f.nz = g->n[2];
+  for (int d = 0; d < 3; ++d) f.origin[d] = g->origin[d];
+  f.spacing = g->spacing;
+  vec3<double> grad;
+  EXPECT_NEAR(grid_distance(f, {0, 0, 0}, grad), -0.075, 0.004);
+  EXPECT_NEAR(grid_distance(f, {0, 0, 0.11}, grad), 0.01, 0.003);
+  EXPECT_GT(grad.z, 0.8);  // outwards, |∇φ| ≈ 1
+  EXPECT_LT(grad.z, 1.2);
+  EXPECT_NEAR(grid_distance(f, {0.085, 0, 0}, grad), 0.01, 0.003);
+  EXPECT_GT(grad.x, 0);
+  EXPECT_GT(grid_distance(f, {1, 0, 0}, grad), 1e20);  // outside the grid: no contact
+}
+
+TEST(SceneErrors, MeshFiles) {
+  const std::string base = scene_text();
+  expect_error(base + "\n[[colliders]]\nkind = \"mesh\"\nfile = \"" + std::string(MANYRODS_TEST_DATA) +
+                   "/open.obj\"\n",
+               {"colliders.0.file", "open.obj", "open mesh"});
+  expect_error(base + "\n[[colliders]]\nkind = \"mesh\"\nfile = \"" + std::string(MANYRODS_TEST_DATA) +
+                   "/head.obj\"\nresolution = 4\n",
+               {"colliders.0.resolution", "[8, 512]"});
+}
+
+TEST(Scene, RodDroppedOnAMeshHeadStaysOutside) {
+  // a rod falling onto the top of the head (the mesh above): it lands and
+  // stays outside, its overlap at most what the law allows (docs/contact.md)
+  const std::string text = "[simulation]\ndt = 1e-4\nduration = 0.15\ngravity = [0.0, 0.0, -9.81]\n"
+                           "[[colliders]]\nname = \"head\"\nkind = \"mesh\"\nfile = \"" +
+                           std::string(MANYRODS_TEST_DATA) +
+                           "/head.obj\"\n[[rods]]\nname = \"strand\"\nelements = 10\nlength = 0.06\n"
+                           "start = [-0.03, 0.0, 0.11]\ndirection = [1.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n"
+                           "root = \"free\"\nsection = { shape = \"circle\", radius = 0.002 }\n"
+                           "material = { density = 1000.0, youngs_modulus = 1.0e6, poisson_ratio = 0.3 }\n"
+                           "damping = { tau_shear = 0.005, tau_extension = 0.005 }\n";
+  const Scene s = parse_scene(text, "mesh.toml");
+  RodBatch<double> b = build_scene_batch<double>(s);
+  advance_scene(b, step_choice(s), 1e-4, 1500, Exec{1});
+  const ContactStats cs = contact_stats(b);
+  EXPECT_GT(cs.contacts, 0);  // it lies on the head
+  EXPECT_LT(cs.max_penetration, 0.1 * 0.002);
+  for (int j = 0; j <= b.elements(0); ++j) EXPECT_GT(b.position(0, j)[2], 0.09);  // on top, not through
 }

@@ -62,6 +62,9 @@ void summary_line(const RunResult& r, const std::string& out) {
                "%.3g element-steps/s, %.3g s wall, state hash %016llx -> %s\n",
                r.interrupted ? "stopped" : "done", r.time, (long long)r.steps, r.dt, (long long)r.frames,
                (long long)r.elements, r.element_steps_per_s, r.wall_s, (unsigned long long)r.state_hash, out.c_str());
+  if (r.max_contacts > 0 || r.max_penetration > 0)
+    std::fprintf(stderr, "manyrods: contact: up to %lld contacts in a frame, deepest overlap %.3g m\n",
+                 (long long)r.max_contacts, r.max_penetration);
   profile_lines(r.stages);
 }
 

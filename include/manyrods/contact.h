@@ -44,7 +44,7 @@ struct Friction {
 
 // A signed-distance grid of a closed triangle mesh (negative inside), in the
 // collider's body frame: φ at the nodes of a regular grid, trilinear between
-// them (load_mesh_collider builds it).
+// them (load_mesh_grid builds it, include/manyrods/mesh.h).
 struct DistanceGrid {
   Vec3 origin{0, 0, 0};  // m, the node (0, 0, 0)
   double spacing = 0;    // m
@@ -86,7 +86,7 @@ struct ContactSpec {
   std::vector<char> rod_has_friction;
   // Ω = h √(k / m_c): how hard contacts are. Larger: less penetration and less
   // restitution (docs/contact.md "The contact law"); > 0.
-  double hardness = 2;
+  double hardness = 4;
   double damping_ratio = 0;  // ζ ≥ 0, added to backward Euler's own damping
   // rod–rod broad phase: the Verlet skin (m; 0: automatic, docs/contact.md)
   // and the candidate capacity per element (an overflow is an error).
@@ -128,6 +128,7 @@ struct ContactData {
   std::vector<int> rod_exclusion;  // [rods] self contact skips elements |i − j| ≤ this apart
   // per slot (scratch of the contact stage, kernels/contact.h)
   Array<int> elem_count;              // contacts in range of element k (mass splitting)
+  Array<int> elem_count_lo, elem_count_hi;  // of them acting on node k (s < 1), on node k+1 (s > 0)
   std::array<Array<T>, 3> elem_p0;    // N·s: impulse on node k from element k's contacts
   std::array<Array<T>, 3> elem_p1;    // N·s: impulse on node k+1
   std::array<Array<T>, 3> elem_l;     // N·m·s: couple impulse on element k (lab)
@@ -170,12 +171,5 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec);
 // placed at the batch's time).
 template <class T>
 ContactStats contact_stats(const RodBatch<T>& b);
-
-// A closed triangle mesh from a Wavefront OBJ file as a signed-distance grid
-// with `resolution` nodes along its longest side (plus a margin). Accepts
-// OBJ with triangles or polygons (fanned), closed (every edge shared by
-// exactly two faces) and consistently oriented; InputError naming the file
-// (and the face or edge) otherwise.
-std::shared_ptr<const DistanceGrid> load_mesh_grid(const std::string& path, int resolution);
 
 }  // namespace manyrods

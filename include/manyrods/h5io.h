@@ -7,6 +7,7 @@
 //   /node_position        [frames, nodes, 3]       m, lab frame (float or double)
 //   /element_directors    [frames, elements, 3, 3] rows d1, d2, d3 (optional)
 //   /energy/{kinetic, elastic, potential, dissipated, dissipation_rate}  [frames]
+//   /energy/contact_work, /contact/{count, max_penetration}  [frames]  (scenes with contact)
 //   /rods/{group, width}  [rods]                   group index, section width (m);
 //                         attribute group_names (one per line)
 //   /scene                group; attributes text (the scene TOML), source
@@ -48,6 +49,7 @@ struct Layout {
   std::vector<std::string> group_names;                     // [groups]
   bool float32 = false;
   bool directors = true;
+  bool contact = false;  // write /energy/contact_work and /contact/{count, max_penetration}
 };
 
 struct RunInfo {
@@ -58,6 +60,9 @@ struct RunInfo {
 
 struct EnergyRow {
   double kinetic = 0, elastic = 0, potential = 0, dissipated = 0, dissipation_rate = 0;
+  // with contact (Layout::contact): the contact impulses' work so far (J),
+  // contacts in touch and the deepest overlap (m) in the frame
+  double contact_work = 0, contacts = 0, max_penetration = 0;
 };
 
 // A named column of values per sweep variation.
@@ -132,8 +137,8 @@ struct Output {
   std::vector<double> rod_width;
   std::vector<std::string> group_names;
   std::int64_t nodes = 0;
-  std::vector<EnergyRow> energy;  // [frames]
-  std::string scene_text;
+  std::vector<EnergyRow> energy;  // [frames] (contact_work, contacts, max_penetration where the file has them)
+  std::string scene_text, scene_source;
   double dt = 0;
   bool has_sweep = false;
   std::vector<Column> sweep_parameters, sweep_summary;

@@ -70,6 +70,10 @@ struct RunResult {
   std::uint64_t state_hash = 0;  // of the final state (include/manyrods/batch.h state_hash)
   StageTimes stages;             // with RunOptions::profile: thread-seconds per stage
   std::vector<ProbeRecord> probes;
+  // scenes with contact, over the frames written: most contacts in touch
+  // and the deepest overlap (m)
+  std::int64_t max_contacts = 0;
+  double max_penetration = 0;
 };
 
 // Runs the scene (from its initial state, or from `restart`, whose scene

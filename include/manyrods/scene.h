@@ -65,6 +65,8 @@ struct RodGroup {
   bool has_initial_tip_force = false;
   Vec3 initial_tip_force{0, 0, 0};  // start in static equilibrium under it, released at t = 0
   double width = 0;                 // largest section dimension (m), for USD widths and strains
+  bool has_friction = false;        // its own `friction` (include/manyrods/contact.h)
+  Friction friction;
 };
 
 struct Override {
@@ -79,6 +81,9 @@ struct Scene {
   std::vector<RodGroup> groups;
   std::vector<RodSpec> rods;   // expanded
   std::vector<int> rod_group;  // [rods] group index
+  // [[colliders]] and [contact] (docs/contact.md), with each rod's group friction
+  ContactSpec contact;
+  bool has_contact = false;
 };
 
 // Parses and validates. `overrides` set numeric values by key path before
@@ -118,6 +123,8 @@ void check_batch_size(const Scene& s);
 struct StepChoice {
   bool kelvin_voigt = false;
   bool gravity = false;
+  bool colliders = false;    // Terms::colliders (the scene has [[colliders]])
+  bool rod_contact = false;  // Terms::rod_contact ([contact] rod_rod or self)
   Integrator integrator = Integrator::position_verlet;
 };
 

@@ -14,6 +14,7 @@ MANYRODS_PACKAGES=(
   libgtest-dev      # GoogleTest
   libbenchmark-dev  # Google Benchmark (bench/)
   libtomlplusplus-dev  # toml++: scene files (host/scene.cpp), with file:line of every key
+  libtinyobjloader-dev # tinyobjloader: OBJ meshes for mesh colliders (host/mesh_grid.cpp)
   libcli11-dev      # CLI11: options and subcommands of build/bin/manyrods
   libhdf5-dev       # HDF5 C library: trajectories, energies and checkpoints (host/h5io.cpp)
   gnuplot-nox       # PNG plots: manyrods plot (pngcairo) and the speed-vs-error study (tools/run-accuracy)

@@ -1,0 +1,127 @@
+// bench/bench_contact.cpp — what contact costs (Google Benchmark;
+// bench/RESULTS.md "Contact").
+//
+// BM_contact_<scene>_<variant>/threads: one Position Verlet step per
+// iteration of the same batch with and without contact, in one run, so that
+// the ratio is measured on one machine at one time. items_per_second =
+// element-steps per second; counters: contacts (in touch at the end of the
+// warm-up), candidates per element (rod–rod lists), contacts_per_s
+// (contacts × steps per second), sim_s_per_s, and the state hash in the label.
+//   headstiff: 1,000 stiff hairs (bench/scenes.h hair, stiff_implicit, double,
+//              half the flexural stable_dt) on a 32 × 32 grid of roots 0.2 mm
+//              apart, horizontal, falling onto a head sphere below them:
+//              off | head | head_rod (head and rod–rod contact)
+//   bundle:    1,024 fibers × 32 elements (r = 0.25 mm, E = 10 MPa, 0.1 m)
+//              twisted into a bundle (one turn per 0.2 m), clamped at the top,
+//              hanging: off | rod (rod–rod contact between every fiber)
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <string>
+
+#include "scenes.h"
+
+using namespace manyrods;
+using namespace manyrods::bench;
+
+namespace {
+
+constexpr Terms kStiffOff = kAllTerms;
+
+std::vector<RodSpec> hair_grid() {
+  std::vector<RodSpec> rods;
+  for (int i = 0; i < 1024; ++i) {
+    RodSpec s = RodSpec::straight({0, 0.0002 * (i % 32), 0.0002 * (i / 32)}, {1, 0, 0}, {0, 0, 1}, 0.2, 32);
+    s.name = "hair";
+    s.section = Section::circle(40e-6);
+    s.material = {1300, 3.9e9, 0.3};
+    s.damping = Damping::shear_extension(1e-3, 1e-3);
+    s.clamped_root = true;
+    s.stiff_implicit = true;
+    rods.push_back(s);
+  }
+  return rods;
+}
+
+std::vector<RodSpec> twisted_bundle() {
+  const int side = 32, n = 32;
+  const double r = 0.25e-3, spacing = 2 * r * 1.15, L = 0.1, twist = 2 * std::numbers::pi / 0.2;
+  std::vector<RodSpec> rods;
+  for (int i = 0; i < side * side; ++i) {
+    const double y0 = spacing * (i % side - 0.5 * (side - 1)), z0 = spacing * (i / side - 0.5 * (side - 1));
+    std::vector<Vec3> nodes;
+    for (int j = 0; j <= n; ++j) {
+      const double s = L * j / n, a = twist * s;
+      nodes.push_back({std::cos(a) * y0 - std::sin(a) * z0, std::sin(a) * y0 + std::cos(a) * z0, -s});
+    }
+    RodSpec f = RodSpec::polyline(nodes, RodSpec::parallel_transport_frames(nodes, {1, 0, 0}));
+    f.name = "fiber";
+    f.section = Section::circle(r);
+    f.material = {1000, 1e7, 0.3};
+    f.damping = Damping::shear_extension(1e-3, 1e-3);
+    f.clamped_root = true;
+    rods.push_back(f);
+  }
+  return rods;
+}
+
+ContactSpec contact_for(const std::string& variant, bool hair) {
+  ContactSpec c;
+  if (variant == "off") return c;
+  if (hair) {
+    Collider head;
+    head.name = "head";
+    head.kind = ColliderKind::sphere;
+    head.center = {0.15, 0.003, -0.1};
+    head.radius = 0.098;
+    head.friction = {0.4, 0.3};
+    c.colliders = {head};
+  }
+  c.rod_rod = variant == "head_rod" || variant == "rod";
+  c.friction = {0.3, 0.2};
+  return c;
+}
+
+template <Terms kT>
+void run_contact(benchmark::State& state, const std::string& scene, const std::string& variant) {
+  const int threads = int(state.range(0));
+  const Exec ex{threads};
+  const bool hair = scene == "headstiff";
+  RodBatch<double> b = build_batch<double>(hair ? hair_grid() : twisted_bundle(), {0, 0, -9.81});
+  const StableDt lim = stable_dt<kStiffOff>(b);
+  const double dt = 0.5 * lim.elastic;
+  if (variant != "off") set_contact(b, contact_for(variant, hair));
+  // warm up into contact: the hairs' tips reach the head, the fibers settle
+  step_n<kT>(b, dt, hair ? 300 : 100, ex);
+  const ContactStats cs = contact_stats(b);
+  for (auto _ : state) step_n<kT>(b, dt, 1, ex);
+  state.SetItemsProcessed(state.iterations() * b.element_count());
+  double candidates = 0;
+  if (b.contact.on && b.contact.neighbour_count.size() > 0)
+    for (int k = 0; k < b.slots(); ++k) candidates += b.contact.neighbour_count[k];
+  state.counters["contacts"] = double(cs.contacts);
+  state.counters["max_penetration_m"] = cs.max_penetration;
+  state.counters["candidates_per_element"] = candidates / double(b.element_count());
+  state.counters["contacts_per_s"] =
+      benchmark::Counter(double(state.iterations()) * double(cs.contacts), benchmark::Counter::kIsRate);
+  state.counters["sim_s_per_s"] = benchmark::Counter(double(state.iterations()) * dt, benchmark::Counter::kIsRate);
+  char label[96];
+  std::snprintf(label, sizeof label, "hash=%016llx dt=%.3g", (unsigned long long)state_hash(b), dt);
+  state.SetLabel(label);
+}
+
+void BM_contact_headstiff_off(benchmark::State& s) { run_contact<kStiffOff>(s, "headstiff", "off"); }
+void BM_contact_headstiff_head(benchmark::State& s) { run_contact<kColliders>(s, "headstiff", "head"); }
+void BM_contact_headstiff_head_rod(benchmark::State& s) { run_contact<kAllContact>(s, "headstiff", "head_rod"); }
+void BM_contact_bundle_off(benchmark::State& s) { run_contact<kStiffOff>(s, "bundle", "off"); }
+void BM_contact_bundle_rod(benchmark::State& s) { run_contact<kRodContact>(s, "bundle", "rod"); }
+
+}  // namespace
+
+BENCHMARK(BM_contact_headstiff_off)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_headstiff_head)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_headstiff_head_rod)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_bundle_off)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_bundle_rod)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
