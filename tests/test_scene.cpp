@@ -535,10 +535,10 @@ TEST(Scene, MeshColliderIsASignedDistanceGridOfTheObj) {
   f.spacing = g->spacing;
   vec3<double> grad;
   EXPECT_NEAR(grid_distance(f, {0, 0, 0}, grad), -0.075, 0.004);
-  EXPECT_NEAR(grid_distance(f, {0, 0, 0.11}, grad), 0.01, 0.003);
+  EXPECT_NEAR(grid_distance(f, {0, 0, 0.105}, grad), 0.005, 0.002);  // (the grid reaches 3 cells, 9.5 mm, past the mesh)
   EXPECT_GT(grad.z, 0.8);  // outwards, |∇φ| ≈ 1
   EXPECT_LT(grad.z, 1.2);
-  EXPECT_NEAR(grid_distance(f, {0.085, 0, 0}, grad), 0.01, 0.003);
+  EXPECT_NEAR(grid_distance(f, {0.08, 0, 0}, grad), 0.005, 0.002);
   EXPECT_GT(grad.x, 0);
   EXPECT_GT(grid_distance(f, {1, 0, 0}, grad), 1e20);  // outside the grid: no contact
 }
