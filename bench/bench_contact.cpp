@@ -8,9 +8,11 @@
 // warm-up), candidates per element (rod–rod lists), contacts_per_s
 // (contacts × steps per second), sim_s_per_s, and the state hash in the label.
 //   headstiff: 1,000 stiff hairs (bench/scenes.h hair, stiff_implicit, double,
-//              half the flexural stable_dt) on a 32 × 32 grid of roots 0.2 mm
+//              half the flexural stable_dt) on a 32 × 32 grid of roots 0.5 mm
 //              apart, horizontal, falling onto a head sphere below them:
 //              off | head | head_rod (head and rod–rod contact)
+//   bundle16, bundle64: the same with 4 × 4 and 8 × 8 fibers (the side-by-side
+//              with PyElastica, one thread as it has)
 //   bundle:    1,024 fibers × 32 elements (r = 0.25 mm, E = 10 MPa, 0.1 m)
 //              twisted into a bundle (one turn per 0.2 m), clamped at the top,
 //              hanging: off | rod (rod–rod contact between every fiber)
@@ -33,7 +35,7 @@ constexpr Terms kStiffOff = kAllTerms;
 std::vector<RodSpec> hair_grid() {
   std::vector<RodSpec> rods;
   for (int i = 0; i < 1024; ++i) {
-    RodSpec s = RodSpec::straight({0, 0.0002 * (i % 32), 0.0002 * (i / 32)}, {1, 0, 0}, {0, 0, 1}, 0.2, 32);
+    RodSpec s = RodSpec::straight({0, 0.0005 * (i % 32), 0.0005 * (i / 32)}, {1, 0, 0}, {0, 0, 1}, 0.2, 32);
     s.name = "hair";
     s.section = Section::circle(40e-6);
     s.material = {1300, 3.9e9, 0.3};
@@ -45,8 +47,8 @@ std::vector<RodSpec> hair_grid() {
   return rods;
 }
 
-std::vector<RodSpec> twisted_bundle() {
-  const int side = 32, n = 32;
+std::vector<RodSpec> twisted_bundle(int side) {
+  const int n = 32;
   const double r = 0.25e-3, spacing = 2 * r * 1.15, L = 0.1, twist = 2 * std::numbers::pi / 0.2;
   std::vector<RodSpec> rods;
   for (int i = 0; i < side * side; ++i) {
@@ -74,12 +76,13 @@ ContactSpec contact_for(const std::string& variant, bool hair) {
     Collider head;
     head.name = "head";
     head.kind = ColliderKind::sphere;
-    head.center = {0.15, 0.003, -0.1};
+    head.center = {0.15, 0.008, -0.1};
     head.radius = 0.098;
     head.friction = {0.4, 0.3};
     c.colliders = {head};
   }
   c.rod_rod = variant == "head_rod" || variant == "rod";
+  c.capacity = 128;  // a dense groom piling on the head
   c.friction = {0.3, 0.2};
   return c;
 }
@@ -89,7 +92,8 @@ void run_contact(benchmark::State& state, const std::string& scene, const std::s
   const int threads = int(state.range(0));
   const Exec ex{threads};
   const bool hair = scene == "headstiff";
-  RodBatch<double> b = build_batch<double>(hair ? hair_grid() : twisted_bundle(), {0, 0, -9.81});
+  const int side = scene == "bundle16" ? 4 : scene == "bundle64" ? 8 : 32;
+  RodBatch<double> b = build_batch<double>(hair ? hair_grid() : twisted_bundle(side), {0, 0, -9.81});
   const StableDt lim = stable_dt<kStiffOff>(b);
   const double dt = 0.5 * lim.elastic;
   if (variant != "off") set_contact(b, contact_for(variant, hair));
@@ -117,6 +121,11 @@ void BM_contact_headstiff_head(benchmark::State& s) { run_contact<kColliders>(s,
 void BM_contact_headstiff_head_rod(benchmark::State& s) { run_contact<kAllContact>(s, "headstiff", "head_rod"); }
 void BM_contact_bundle_off(benchmark::State& s) { run_contact<kStiffOff>(s, "bundle", "off"); }
 void BM_contact_bundle_rod(benchmark::State& s) { run_contact<kRodContact>(s, "bundle", "rod"); }
+// the bundles of the side-by-side with PyElastica's RodRodContact (bench/RESULTS.md)
+void BM_contact_bundle16_off(benchmark::State& s) { run_contact<kStiffOff>(s, "bundle16", "off"); }
+void BM_contact_bundle16_rod(benchmark::State& s) { run_contact<kRodContact>(s, "bundle16", "rod"); }
+void BM_contact_bundle64_off(benchmark::State& s) { run_contact<kStiffOff>(s, "bundle64", "off"); }
+void BM_contact_bundle64_rod(benchmark::State& s) { run_contact<kRodContact>(s, "bundle64", "rod"); }
 
 }  // namespace
 
@@ -125,3 +134,7 @@ BENCHMARK(BM_contact_headstiff_head)->ArgName("threads")->Arg(1)->Arg(2)->UseRea
 BENCHMARK(BM_contact_headstiff_head_rod)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_contact_bundle_off)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_contact_bundle_rod)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_bundle16_off)->ArgName("threads")->Arg(1)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_bundle16_rod)->ArgName("threads")->Arg(1)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_bundle64_off)->ArgName("threads")->Arg(1)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_bundle64_rod)->ArgName("threads")->Arg(1)->UseRealTime()->MinTime(0.5);

@@ -149,6 +149,7 @@ void place_colliders(const ContactData<T>& c, double t, double h, ColliderFrame<
     EM3 R = EM3::Identity();
     E3 cm = E3::Zero();
     if (col.motion) {
+      f.moving = h > 0 ? 1 : 0;
       const Pose mid = col.motion->at(t + 0.5 * h);
       R = em3(mid.rotation);
       cm = e3(mid.translation);

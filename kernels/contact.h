@@ -480,7 +480,8 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
   using namespace contact_detail;
   Accumulator<T> acc;
   const int rod = cv.elem_rod[k];
-  if (rod >= 0) {
+  // pass 2 visits only the elements the count found something for
+  if (rod >= 0 && (!kImpulse || cv.elem_count[k] > 0)) {
     const vec3<T> x0 = load3(st.node_x, k), x1 = load3(st.node_x, k + 1), e = x1 - x0;
     const T r = cv.elem_radius[k], el = norm(e);
     const vec3<T> axis = unit_or(e, el, vec3<T>{T(0), T(0), T(1)});
@@ -489,8 +490,12 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
     if constexpr (kColliders) {
       for (int i = 0; i < cv.collider_count; ++i) {
         const ColliderFrame<T>& c = cv.colliders[i];
-        const T vb0 = norm(collider_velocity(c, x0)), vb1 = norm(collider_velocity(c, x1));
-        const T delta = reach * (va + (vb0 > vb1 ? vb0 : vb1)) + T(0.5) * r;
+        T vb = T(0);
+        if (c.moving) {
+          const T vb0 = norm(collider_velocity(c, x0)), vb1 = norm(collider_velocity(c, x1));
+          vb = vb0 > vb1 ? vb0 : vb1;
+        }
+        const T delta = reach * (va + vb) + T(0.5) * r;
         Touch<T> touch[3];
         const int nt = collider_touches(c, x0, x1, r, touch);
         for (int j = 0; j < nt; ++j) {
@@ -563,6 +568,9 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
 // minus before: ½ m (|v⁺|² − |v⁻|²) + ½ Σ J_i (ω_i⁺² − ω_i⁻²)).
 template <class T>
 MANYRODS_HD inline void apply_contact(int k, const ModelView<T>& m, const StateView<T>& st, const ContactView<T>& cv) {
+  // nothing gathered for node k or element k (a ghost node, inverse mass 0,
+  // is not asked about element k − 1, which may lie in another segment)
+  if (cv.elem_count[k] == 0 && (m.node_inv_mass[k] == T(0) || cv.elem_count[k - 1] == 0)) return;
   T dw = T(0);
   const T im = m.node_inv_mass[k];
   if (im > T(0)) {

@@ -91,7 +91,7 @@ struct ContactSpec {
   // rod–rod broad phase: the Verlet skin (m; 0: automatic, docs/contact.md)
   // and the candidate capacity per element (an overflow is an error).
   double skin = 0;
-  int capacity = 32;
+  int capacity = 64;
 };
 
 // ---- the batch's contact data (RodBatch::contact; set_contact fills it) ----------
@@ -108,6 +108,7 @@ struct ColliderFrame {
   T radius = 0;
   T R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, c[3] = {};  // body → lab: x = R X + c
   T A[9] = {}, u[3] = {};                          // velocity field
+  int moving = 0;                                   // it has a motion (else A = 0, u = 0)
   T mu[4] = {};                                     // static, kinetic, static axial, kinetic axial
   // mesh: the grid in the body frame
   const float* phi = nullptr;
