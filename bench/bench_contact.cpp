@@ -82,7 +82,7 @@ ContactSpec contact_for(const std::string& variant, bool hair) {
     c.colliders = {head};
   }
   c.rod_rod = variant == "head_rod" || variant == "rod";
-  c.capacity = 128;  // a dense groom piling on the head
+  c.capacity = 512;  // a dense groom piling on the head (docs/contact.md "Limitations": the skin follows the fastest node)
   c.friction = {0.3, 0.2};
   return c;
 }
