@@ -555,3 +555,31 @@ class CleanUp : public ::testing::Environment {
 };
 const auto* const kCleanUp = ::testing::AddGlobalTestEnvironment(new CleanUp);
 
+
+// A scene with contact: its outputs (/contact, /energy/contact_work), the
+// summary line and the colliders in the USD export (docs/scenes.md).
+TEST(Cli, ContactSceneWritesContactsAndUsdColliders) {
+  const std::string out = path("pile.h5");
+  const Result r = cli("run " + std::string(MANYRODS_SCENES) + "/cable_pile.toml -o " + out + " --duration 0.2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_contains(r.err, "manyrods: contact: up to ");
+  {
+    const h5::Reader rd(out);
+    const h5::Output& o = rd.output();
+    double most = 0, work = 0;
+    for (const h5::EnergyRow& e : o.energy) {
+      most = std::max(most, e.contacts);
+      work = e.contact_work;
+      EXPECT_LT(e.max_penetration, 0.1 * 0.005);  // below a tenth of the cables' radius
+    }
+    EXPECT_GT(most, 0);  // the bottom layer lands on the floor within 0.2 s
+    EXPECT_LT(work, 0);  // and the contacts took energy
+  }
+  const Result e = cli("export " + out + " --usd " + path("pile.usda"));
+  ASSERT_EQ(e.status, 0) << e.err;
+  const std::string usd = slurp(path("pile.usda"));
+  expect_contains(usd, "def Xform \"colliders\"");
+  expect_contains(usd, "def Xform \"collider0_floor\"");
+  expect_contains(usd, "def Mesh \"shape\"");
+  EXPECT_EQ(std::count(usd.begin(), usd.end(), '{'), std::count(usd.begin(), usd.end(), '}'));
+}
