@@ -114,8 +114,8 @@ void put(T* dst, const E3& v) {
 template <class T>
 void check_start_outside(RodBatch<T>& b) {
   ContactData<T>& c = b.contact;
-  if (c.colliders.empty()) return;
-  std::vector<ColliderFrame<T>> frames(c.colliders.size());
+  if (c.spec.colliders.empty()) return;
+  std::vector<ColliderFrame<T>> frames(c.spec.colliders.size());
   place_colliders(c, b.state.time, 0.0, frames.data());
   const ConstStateView<T> s = std::as_const(b).state_view();
   for (int r = 0; r < b.rod_count(); ++r)
@@ -195,15 +195,12 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   ContactData<T> c;
   c.on = true;
   c.spec = spec;
-  c.colliders.resize(spec.colliders.size());
   const std::size_t n = std::size_t(b.slots());
   c.elem_radius.resize(n, T(0));
   c.elem_rod.resize(n, -1);
   c.elem_count.resize(n, 0);
   c.elem_count_lo.resize(n, 0);
   c.elem_count_hi.resize(n, 0);
-  c.elem_active.resize(n, 0);
-  c.elem_depth.resize(n, T(0));
   c.work.resize(n, T(0));
   c.neighbour_count.resize(n, 0);
   for (int d = 0; d < 3; ++d) {
@@ -297,12 +294,7 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
             for (std::size_t i = std::size_t(it - c.cell_key.begin()); i < c.cell_key.size() && c.cell_key[i] == kk; ++i) {
               const int kb = c.cell_slot[i], rb = c.elem_rod[kb];
               if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self, c.rod_exclusion[ra])) continue;
-              const int lo = std::min(k, kb), hi = std::max(k, kb);
-              const vec3<T> a0 = load3(s.node_x, lo), ae = load3(s.node_x, lo + 1) - a0;
-              const vec3<T> b0 = load3(s.node_x, hi), be = load3(s.node_x, hi + 1) - b0;
-              T u, w;
-              closest_segments(a0, ae, b0, be, u, w);
-              const T gap = norm((a0 + u * ae) - (b0 + w * be)) - c.elem_radius[lo] - c.elem_radius[hi];
+              const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
               if (!(gap < c.skin)) continue;
               if (count < cap) c.neighbours[std::size_t(k) * std::size_t(cap) + std::size_t(count)] = kb;
               ++count;
@@ -333,7 +325,7 @@ ContactStats contact_stats(const RodBatch<T>& b) {
   const ContactData<T>& c = b.contact;
   if (!c.on) return st;
   st.rebuilds = c.rebuilds;
-  std::vector<ColliderFrame<T>> frames(c.colliders.size());
+  std::vector<ColliderFrame<T>> frames(c.spec.colliders.size());
   place_colliders(c, b.state.time, 0.0, frames.data());
   const ConstStateView<T> s = b.state_view();
   auto note = [&](T gap, int r, int e) {
@@ -353,11 +345,8 @@ ContactStats contact_stats(const RodBatch<T>& b) {
       if (!c.built) continue;
       for (int j = 0; j < c.neighbour_count[k]; ++j) {
         const int kb = c.neighbours[std::size_t(k) * std::size_t(c.spec.capacity) + std::size_t(j)];
-        if (kb < k) continue;  // each pair once
-        const vec3<T> b0 = load3(s.node_x, kb), be = load3(s.node_x, kb + 1) - b0;
-        T u, w;
-        closest_segments(x0, x1 - x0, b0, be, u, w);
-        note(norm((x0 + u * (x1 - x0)) - (b0 + w * be)) - c.elem_radius[k] - c.elem_radius[kb], r, e);
+        if (kb < k) continue;  // each pair once, in the stage's order (lo = k)
+        note(pair_geometry(k, kb, s.node_x, c.elem_radius.data()).gap, r, e);
       }
     }
   return st;

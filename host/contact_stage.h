@@ -35,7 +35,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   ContactData<T>& c = b.contact;
   ContactView<T> v;
   v.colliders = frames;
-  v.collider_count = int(c.colliders.size());
+  v.collider_count = int(c.spec.colliders.size());
   v.elem_radius = c.elem_radius.data();
   v.elem_rod = c.elem_rod.data();
   v.rod_mu = c.rod_mu.data();
@@ -48,15 +48,10 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
     v.p1[d] = c.elem_p1[d].data();
     v.l[d] = c.elem_l[d].data();
   }
-  v.elem_active = c.elem_active.data();
-  v.elem_depth = c.elem_depth.data();
   v.work = c.work.data();
   v.neighbours = c.neighbours.data();
   v.neighbour_count = c.neighbour_count.data();
   v.capacity = c.spec.capacity;
-  v.rod_exclusion = c.rod_exclusion.data();
-  v.rod_rod = c.spec.rod_rod;
-  v.self = c.spec.self;
   v.hardness = T(c.spec.hardness);
   v.damping_ratio = T(c.spec.damping_ratio);
   return v;

@@ -10,6 +10,7 @@
 //      rates from (v, ω)_n                                     compute_resultants
 //   3. kick h:    v += h m⁻¹ F,  ω += h J⁻¹ C                  segment_kick
 //   4. (M + hD) u⁺ = M u for damped and stiff rods             viscous_update
+//   4a. (contact Terms) [broad phase,] contact impulses          contact_stage
 //   5. drift ½h                                                drift
 //   6. (float) frames renormalized every 16th step            renormalize_frames
 // Second order for the elastic (conservative) part, first order for the
@@ -51,9 +52,7 @@ constexpr Terms solve_terms() {
   t.kelvin_voigt = kT.kelvin_voigt && kV == Viscous::implicit;
   return t;
 }
-}  // namespace detail
 
-namespace detail {
 // Colliders placed for each of `count` steps from the batch's time (a
 // segment's steps read their step's row: the placements are computed once,
 // not per segment).
@@ -61,7 +60,7 @@ template <Terms kT, class T>
 std::vector<ColliderFrame<T>> collider_frames(const RodBatch<T>& b, T dt, std::int64_t count) {
   std::vector<ColliderFrame<T>> f;
   if constexpr (kT.colliders) {
-    const std::size_t nc = b.contact.colliders.size();
+    const std::size_t nc = b.contact.spec.colliders.size();
     f.resize(nc * std::size_t(count));
     double t = b.state.time;
     for (std::int64_t i = 0; i < count; ++i, t += double(dt))
@@ -75,35 +74,56 @@ void check_contact(const RodBatch<T>& b) {
     if (!b.contact.on)
       throw std::invalid_argument("step: the Terms have contact on but the batch has none (set_contact first)");
 }
+
+// The stages of one Position Verlet step on segment r before the contact
+// stage (root motion for [t, t + dt], drift ½h, resultants, kick h, implicit
+// solve), and after it (drift ½h, the float renormalization when the
+// batch's step count becomes `done`). The contact stage comes after the
+// implicit solve: before it, a stiff rod's velocities still hold its
+// unresolved stiff modes (h|ω| ≫ 1), which the contact must not see.
+template <Terms kT, Viscous kV, class T>
+void verlet_before_contact(RodBatch<T>& b, T dt, double t, bool solve, const Exec& e, const Segment& r,
+                           int thread) {
+  constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
+  constexpr Terms kSolve = detail::solve_terms<kT, kV>();
+  if (r.driven_end > r.driven_begin)
+    timed(e, thread, Stage::root_motion, [&] { apply_root_motion(b, r, t, double(dt)); });
+  timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
+  timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
+  timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
+  if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+}
+template <class T>
+void verlet_after_contact(RodBatch<T>& b, T dt, std::int64_t done, const Exec& e, const Segment& r, int thread) {
+  timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
+  if (renormalize_after<T>(done)) timed(e, thread, Stage::renormalize, [&] { renormalize_frames(b, e, r); });
+}
+// Whether the step has an implicit solve (and its buffers reserved).
+template <Terms kT, Viscous kV, class T>
+bool prepare_solve(RodBatch<T>& b, const Exec& ex) {
+  const bool solve = detail::solve_terms<kT, kV>().kelvin_voigt || b.any_stiff();
+  if (solve) b.reserve_implicit_scratch(ex.threads);
+  return solve;
+}
 }  // namespace detail
 
 // Position Verlet steps with rod–rod contact: the stages of step_n, with the
-// contact stage (and the broad phase before it) over the whole batch, between
-// the implicit solve and the last drift of each step.
+// broad phase and the contact stage over the whole batch between the
+// implicit solve and the last drift of each step.
 template <Terms kT, Viscous kV, class T>
 void step_rod_contact(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
-  constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
-  constexpr Terms kSolve = detail::solve_terms<kT, kV>();
-  const bool solve = kSolve.kelvin_voigt || b.any_stiff();
-  if (solve) b.reserve_implicit_scratch(ex.threads);
+  const bool solve = detail::prepare_solve<kT, kV>(b, ex);
   const Segment all = whole(b);
   for (std::int64_t i = 0; i < count; ++i) {
     const double t = b.state.time;
     const std::vector<ColliderFrame<T>> frames = detail::collider_frames<kT>(b, dt, 1);
     for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
-      if (r.driven_end > r.driven_begin)
-        timed(e, thread, Stage::root_motion, [&] { apply_root_motion(b, r, t, double(dt)); });
-      timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
-      timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
-      timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
-      if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+      detail::verlet_before_contact<kT, kV>(b, dt, t, solve, e, r, thread);
     });
     timed(ex, 0, Stage::broad_phase, [&] { update_neighbours(b, dt, ex); });
     timed(ex, 0, Stage::contact, [&] { contact_stage<kT>(b, dt, frames.data(), ex, all); });
     for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
-      timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
-      if (renormalize_after<T>(b.state.steps + 1))
-        timed(e, thread, Stage::renormalize, [&] { renormalize_frames(b, e, r); });
+      detail::verlet_after_contact(b, dt, b.state.steps + 1, e, r, thread);
     });
     b.state.time += double(dt);
     b.state.steps += 1;
@@ -118,34 +138,21 @@ void step_rod_contact(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) 
 // stage, the contact stage over the whole batch, and the rest (step_rod_contact).
 template <Terms kT, Viscous kV, class T>
 void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
-  constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
-  constexpr Terms kSolve = detail::solve_terms<kT, kV>();
   detail::check_contact<kT>(b);
   if constexpr (kT.rod_contact) {
     step_rod_contact<kT, kV>(b, dt, count, ex);
     return;
   }
-  const bool solve = kSolve.kelvin_voigt || b.any_stiff();
-  if (solve) b.reserve_implicit_scratch(ex.threads);
+  const bool solve = detail::prepare_solve<kT, kV>(b, ex);
   const std::vector<ColliderFrame<T>> frames = detail::collider_frames<kT>(b, dt, count);
-  const std::size_t nc = b.contact.colliders.size();
+  const std::size_t nc = b.contact.spec.colliders.size();
   for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
     double t = b.state.time;
-    for (std::int64_t i = 0; i < count; ++i) {
-      if (r.driven_end > r.driven_begin)
-        timed(e, thread, Stage::root_motion, [&] { apply_root_motion(b, r, t, double(dt)); });
-      t += double(dt);
-      timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
-      timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
-      timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
-      if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
-      // after the implicit solve: a stiff rod's velocities before it hold the
-      // unresolved stiff modes (h|ω| ≫ 1), which the contact must not see
+    for (std::int64_t i = 0; i < count; ++i, t += double(dt)) {
+      detail::verlet_before_contact<kT, kV>(b, dt, t, solve, e, r, thread);
       if constexpr (kT.colliders)
         timed(e, thread, Stage::contact, [&] { contact_stage<kT>(b, dt, frames.data() + nc * std::size_t(i), e, r); });
-      timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
-      if (renormalize_after<T>(b.state.steps + i + 1))
-        timed(e, thread, Stage::renormalize, [&] { renormalize_frames(b, e, r); });
+      detail::verlet_after_contact(b, dt, b.state.steps + i + 1, e, r, thread);
     }
   });
   for (std::int64_t i = 0; i < count; ++i) b.state.time += double(dt);  // as `count` step() calls

@@ -19,8 +19,8 @@ namespace {
 
 using Frames = std::vector<std::vector<double>>;  // [samples][3 × nodes] positions
 
-std::string prim_name(const std::string& s, int index) {
-  std::string n = "group_" + std::to_string(index) + "_";
+std::string prim_name(const std::string& s, int index, const char* kind = "group_") {
+  std::string n = kind + std::to_string(index) + "_";
   for (char c : s) n += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
   return n;
 }
@@ -212,7 +212,7 @@ void write_colliders(std::ostream& out, const h5::Output& o, const std::vector<s
   out << "    def Xform \"colliders\"\n    {\n";
   for (std::size_t i = 0; i < sc.contact.colliders.size(); ++i) {
     const Collider& c = sc.contact.colliders[i];
-    out << "        def Xform \"" << prim_name(c.name, int(i)).replace(0, 6, "collider") << "\"\n        {\n";
+    out << "        def Xform \"" << prim_name(c.name, int(i), "collider") << "\"\n        {\n";
     if (c.motion) {
       out << "            matrix4d xformOp:transform.timeSamples = {\n";
       for (std::int64_t f : frames) {

@@ -55,7 +55,7 @@
 //
 // reads: model (masses, inertia), state (x, v, Q, ω), contact data
 // writes: contact.elem_count (contact_count), contact.elem_p0, elem_p1,
-//   elem_l, elem_active, elem_depth (contact_impulses), state.node_v,
+//   elem_l (contact_impulses), state.node_v,
 //   elem_w and contact.work (apply_contact)
 #pragma once
 
@@ -79,14 +79,10 @@ struct ContactView {
   T* p0[3] = {};
   T* p1[3] = {};
   T* l[3] = {};
-  int* elem_active = nullptr;
-  T* elem_depth = nullptr;
   T* work = nullptr;
   const int* neighbours = nullptr;
   const int* neighbour_count = nullptr;
   int capacity = 0;
-  const int* rod_exclusion = nullptr;  // [rods] self contact skips |i − j| ≤ this
-  bool rod_rod = false, self = false;
   T hardness = 4, damping_ratio = 0;
 };
 
@@ -439,6 +435,27 @@ MANYRODS_HD inline bool rod_pair_allowed(int ka, int ra, int kb, int rb, bool ro
   return d > exclusion;
 }
 
+// Elements lo < hi as a pair, always in this order (so that both sides of
+// a pair compute bit-identical values): the closest points s (on lo) and t
+// (on hi), d = q_lo − q_hi, its length and the gap |d| − r_lo − r_hi.
+template <class T>
+struct PairGeometry {
+  T s, t, len, gap;
+  vec3<T> d, e_lo;
+};
+template <class T>
+MANYRODS_HD inline PairGeometry<T> pair_geometry(int lo, int hi, const T* const x[3], const T* radius) {
+  PairGeometry<T> g;
+  const vec3<T> a0 = load3(x, lo), b0 = load3(x, hi);
+  g.e_lo = load3(x, lo + 1) - a0;
+  const vec3<T> be = load3(x, hi + 1) - b0;
+  closest_segments(a0, g.e_lo, b0, be, g.s, g.t);
+  g.d = (a0 + g.s * g.e_lo) - (b0 + g.t * be);
+  g.len = norm(g.d);
+  g.gap = g.len - radius[lo] - radius[hi];
+  return g;
+}
+
 namespace contact_detail {
 template <class T>
 MANYRODS_HD inline T max_speed(const ConstStateView<T>& st, int k) {
@@ -448,19 +465,16 @@ MANYRODS_HD inline T max_speed(const ConstStateView<T>& st, int k) {
 template <class T>
 struct Accumulator {
   vec3<T> p0{T(0), T(0), T(0)}, p1{T(0), T(0), T(0)}, l{T(0), T(0), T(0)};
-  int count = 0, count_lo = 0, count_hi = 0, active = 0;  // count_lo/hi: of them on node k / k+1
-  T depth = T(0);
+  int count = 0, count_lo = 0, count_hi = 0;  // count_lo/hi: of them on node k / k+1
   MANYRODS_HD void count_in(T s) {
     ++count;
     if (s < T(1)) ++count_lo;
     if (s > T(0)) ++count_hi;
   }
-  MANYRODS_HD void add(T s, vec3<T> p, vec3<T> rho, vec3<T> d3, vec3<T> pt, T lam, T gap) {
+  MANYRODS_HD void add(T s, vec3<T> p, vec3<T> rho, vec3<T> d3, vec3<T> pt) {
     p0 = p0 + (T(1) - s) * p;
     p1 = p1 + s * p;
     l = l + dot(d3, cross(rho, pt)) * d3;  // about the axis only (element_side)
-    if (lam > T(0)) ++active;
-    if (-gap > depth) depth = -gap;
   }
 };
 }  // namespace contact_detail
@@ -468,9 +482,9 @@ struct Accumulator {
 // Element k's contacts with the colliders (kColliders) and with its listed
 // partner elements (kRods). kImpulse = false: only counts those in range,
 // into elem_count (pass 1, for the mass splitting); true: the impulses
-// (pass 2, after every count is known), into elem_p0, elem_p1, elem_l,
-// elem_active, elem_depth. The contact range: a contact can push within the
-// step only if its gap is below h (1 + 2ζ/Ω) |v_rel| (C1), so
+// (pass 2, after every count is known), into elem_p0, elem_p1, elem_l.
+// The contact range: a contact can push within the step only if its gap
+// is below h (1 + 2ζ/Ω) |v_rel| (C1), so
 //   δ = h (1 + 2ζ/Ω)(v_max,a + v_max,b) + ½ (r_a + r_b)
 // with each side's fastest node (a collider: its body velocity at the
 // element's ends, exact for a rigid motion), the ½ r a margin.
@@ -513,7 +527,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
             vec3<T> pt;
             const vec3<T> p =
                 contact_impulse(a, b, t.n, t.gap, mu, axis, h, cv.hardness, cv.damping_ratio, lam, pt);
-            acc.add(t.s, p, rho, a.d3, pt, lam, t.gap);
+            acc.add(t.s, p, rho, a.d3, pt);
           }
         }
       }
@@ -523,29 +537,23 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
       for (int j = 0; j < nc; ++j) {
         const int kb = cv.neighbours[std::size_t(k) * std::size_t(cv.capacity) + std::size_t(j)];
         const int lo = k < kb ? k : kb, hi = k < kb ? kb : k;
-        const vec3<T> a0 = load3(st.node_x, lo), ae = load3(st.node_x, lo + 1) - a0;
-        const vec3<T> b0 = load3(st.node_x, hi), be = load3(st.node_x, hi + 1) - b0;
-        T s, t;
-        closest_segments(a0, ae, b0, be, s, t);
-        const vec3<T> d = (a0 + s * ae) - (b0 + t * be);
-        const T len = norm(d);
+        const PairGeometry<T> g = pair_geometry(lo, hi, st.node_x, cv.elem_radius);
         const T ra = cv.elem_radius[lo], rb = cv.elem_radius[hi];
-        const T gap = len - ra - rb;
         const T delta = reach * (max_speed(st, lo) + max_speed(st, hi)) + T(0.5) * (ra + rb);
-        if (!(gap < delta)) continue;
-        acc.count_in(k == lo ? s : t);
+        if (!(g.gap < delta)) continue;
+        acc.count_in(k == lo ? g.s : g.t);
         if constexpr (kImpulse) {
-          const vec3<T> n = unit_or(d, len, any_orthogonal(ae));
-          const ContactSide<T> sa = element_side(lo, s, (-ra) * n, m, st, cv);
-          const ContactSide<T> sb = element_side(hi, t, rb * n, m, st, cv);
+          const vec3<T> n = unit_or(g.d, g.len, any_orthogonal(g.e_lo));
+          const ContactSide<T> sa = element_side(lo, g.s, (-ra) * n, m, st, cv);
+          const ContactSide<T> sb = element_side(hi, g.t, rb * n, m, st, cv);
           T mu[4];
           pair_mu(cv.rod_mu + 4 * cv.elem_rod[lo], true, cv.rod_mu + 4 * cv.elem_rod[hi], true, mu);
           mu[2] = mu[3] = T(-1);  // isotropic between rods
           T lam;
           vec3<T> pt;
-          const vec3<T> p = contact_impulse(sa, sb, n, gap, mu, axis, h, cv.hardness, cv.damping_ratio, lam, pt);
-          if (k == lo) acc.add(s, p, sa.rho, sa.d3, pt, lam, gap);
-          else acc.add(t, -p, sb.rho, sb.d3, -pt, lam, gap);
+          const vec3<T> p = contact_impulse(sa, sb, n, g.gap, mu, axis, h, cv.hardness, cv.damping_ratio, lam, pt);
+          if (k == lo) acc.add(g.s, p, sa.rho, sa.d3, pt);
+          else acc.add(g.t, -p, sb.rho, sb.d3, -pt);
         }
       }
     }
@@ -558,8 +566,6 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
     store3(cv.p0, k, acc.p0);
     store3(cv.p1, k, acc.p1);
     store3(cv.l, k, acc.l);
-    cv.elem_active[k] = acc.active;
-    cv.elem_depth[k] = acc.depth;
   }
 }
 

@@ -120,7 +120,6 @@ template <class T>
 struct ContactData {
   bool on = false;  // set_contact was called
   ContactSpec spec;
-  std::vector<ColliderFrame<T>> colliders;  // [colliders] placement of the current step
   // per slot (model): contact radius (0: ghost), rod index (−1: ghost)
   Array<T> elem_radius;
   Array<int> elem_rod;
@@ -133,8 +132,6 @@ struct ContactData {
   std::array<Array<T>, 3> elem_p0;    // N·s: impulse on node k from element k's contacts
   std::array<Array<T>, 3> elem_p1;    // N·s: impulse on node k+1
   std::array<Array<T>, 3> elem_l;     // N·m·s: couple impulse on element k (lab)
-  Array<int> elem_active;             // contacts of element k that pushed (λ > 0) this step
-  Array<T> elem_depth;                // m: deepest penetration of element k this step (≥ 0)
   Array<T> work;                      // J: work of the contact impulses on slot k's node and element, summed over steps
   // rod–rod broad phase (docs/contact.md "Finding rod–rod contacts")
   std::array<Array<T>, 3> node_x_ref;  // m: node positions at the last rebuild
