@@ -137,6 +137,34 @@ void check_start_outside(RodBatch<T>& b) {
     }
 }
 
+// No two elements that may touch start overlapping (by more than 1 % of
+// their radii): held rods could never separate, and free ones would be
+// thrown apart in the first step. Builds the first lists.
+template <class T>
+void check_start_apart(RodBatch<T>& b) {
+  ContactData<T>& c = b.contact;
+  if (!(c.spec.rod_rod || c.spec.self)) return;
+  update_neighbours(b, T(0), Exec{1});
+  const ConstStateView<T> s = std::as_const(b).state_view();
+  for (int r = 0; r < b.rod_count(); ++r)
+    for (int e = 0; e < b.elements(r); ++e) {
+      const int k = b.elem_index(r, e);
+      for (int j = 0; j < c.neighbour_count[k]; ++j) {
+        const int kb = c.neighbours[std::size_t(k) * std::size_t(c.spec.capacity) + std::size_t(j)];
+        if (kb < k) continue;
+        const T gap = pair_geometry(k, kb, s.node_x, c.elem_radius.data()).gap;
+        if (!(gap < T(-0.01) * (c.elem_radius[k] + c.elem_radius[kb]))) continue;
+        const int rb = c.elem_rod[kb];
+        std::ostringstream os;
+        os.precision(6);
+        os << "contact: rod " << r << " ('" << b.rods[r].name << "') element " << e << " starts overlapping rod "
+           << rb << " ('" << b.rods[rb].name << "') element " << kb - b.rods[rb].offset - 1 << " by "
+           << double(-gap) << " m, more than 1 % of their radii (move the rods apart; docs/contact.md \"Starting states\")";
+        throw InputError(os.str());
+      }
+    }
+}
+
 }  // namespace
 
 template <class T>
@@ -203,6 +231,7 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   c.elem_count_hi.resize(n, 0);
   c.work.resize(n, T(0));
   c.neighbour_count.resize(n, 0);
+  c.elem_skin.resize(n, T(0));
   for (int d = 0; d < 3; ++d) {
     c.elem_p0[d].resize(n, T(0));
     c.elem_p1[d].resize(n, T(0));
@@ -225,7 +254,6 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
       c.elem_rod[k] = r;
       lmin = std::min(lmin, double(b.model.elem_rest_length[k]));
       c.max_radius = std::max(c.max_radius, info.contact_radius);
-      c.max_length = std::max(c.max_length, double(b.model.elem_rest_length[k]));
     }
     // the tightest loop a tube of radius r can make has radius r: elements
     // less than half its circumference (π r) apart along the rod are near
@@ -234,6 +262,26 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   }
   b.contact = std::move(c);
   check_start_outside(b);
+  check_start_apart(b);
+}
+
+// Element k's share of a pair's contact range: the kernel's
+// δ_ab = h (1 + 2ζ/Ω)(v_a + v_b) + ½ (r_a + r_b) = need_a + need_b
+// (kernels/contact.h element_contacts), v_k its fastest node.
+template <class T>
+double contact_need(const ContactData<T>& c, const ConstStateView<T>& s, int k, double reach) {
+  return reach * double(contact_detail::max_speed(s, k)) + 0.5 * double(c.elem_radius[k]);
+}
+
+// how far element k's nodes moved since the last build
+template <class T>
+double moved_since_build(const ContactData<T>& c, const ConstStateView<T>& s, int k) {
+  double m = 0;
+  for (int i = k; i <= k + 1; ++i) {
+    const vec3<T> d = load3(s.node_x, i) - vec3<T>{c.node_x_ref[0][i], c.node_x_ref[1][i], c.node_x_ref[2][i]};
+    m = std::max(m, double(norm(d)));
+  }
+  return m;
 }
 
 template <class T>
@@ -242,24 +290,46 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
   if (!(c.spec.rod_rod || c.spec.self)) return;
   const ConstStateView<T> s = std::as_const(b).state_view();
   const int n = b.slots();
-  // the farthest any node moved since the last build, and the fastest node
-  T disp = T(0), vmax = T(0);
-#pragma omp parallel for num_threads(ex.threads) reduction(max : disp, vmax) if (ex.threads > 1)
-  for (int k = 0; k < n; ++k) {
-    if (!(b.model.node_mass[k] > T(0))) continue;
-    const vec3<T> x = load3(s.node_x, k);
-    const vec3<T> d = x - vec3<T>{c.node_x_ref[0][k], c.node_x_ref[1][k], c.node_x_ref[2][k]};
-    disp = std::max(disp, norm(d));
-    vmax = std::max(vmax, norm(load3(s.node_v, k)));
-  }
   const double reach = double(h) * (1 + 2 * c.spec.damping_ratio / c.spec.hardness);
-  const double delta = reach * 2 * double(vmax) + c.max_radius;  // the largest contact range
-  if (c.built && 2 * double(disp) + delta <= double(c.skin)) return;
-  // skin: given, or 2 r_max, and at least twice the contact range now
-  const double skin = std::max(c.spec.skin > 0 ? c.spec.skin : 2 * c.max_radius, 2 * delta);
-  c.skin = T(skin);
-  c.cell = T(c.max_length + 2 * c.max_radius + skin);
-  const double inv = 1 / double(c.cell);
+  // The lists stay valid while every element's nodes moved less than its
+  // skin's margin: a pair left out at the build had gap ≥ s_a + s_b, so now
+  // gap ≥ s_a + s_b − moved_a − moved_b ≥ need_a + need_b = δ_ab.
+  if (c.built) {
+    int stale = 0;
+#pragma omp parallel for num_threads(ex.threads) reduction(max : stale) if (ex.threads > 1)
+    for (int k = 0; k < n; ++k)
+      if (c.elem_rod[k] >= 0 && moved_since_build(c, s, k) + contact_need(c, s, k, reach) > double(c.elem_skin[k]))
+        stale = 1;
+    if (!stale) return;
+  }
+  // Each element's reach s_k: its contact range now plus a margin for the
+  // motion until the next build (ContactSpec::skin, by default its radius,
+  // and at least 2 h (1 + 2ζ/Ω) v_k: one element's speed widens its own
+  // list, not everyone's). Pairs with gap < s_a + s_b are kept.
+  std::vector<double> reach_of;  // the s_k of the real elements, for the threshold
+  double lmax = 0;
+  for (int k = 0; k < n; ++k) {
+    if (c.elem_rod[k] < 0) continue;
+    const double v = double(contact_detail::max_speed(s, k)), r = double(c.elem_radius[k]);
+    const double margin = std::max(c.spec.skin > 0 ? c.spec.skin : r, 2 * reach * v);
+    c.elem_skin[k] = T(contact_need(c, s, k, reach) + margin);
+    reach_of.push_back(double(c.elem_skin[k]));
+    lmax = std::max(lmax, double(norm(load3(s.node_x, k + 1) - load3(s.node_x, k))));
+  }
+  if (reach_of.empty()) return;
+  // Elements reaching beyond the 99th percentile are "wide" (whipping tips):
+  // the grid's cell is sized for the others, a wide element searches as many
+  // cells as its own reach needs and hands its pairs to its narrow partners.
+  const double s_max = *std::max_element(reach_of.begin(), reach_of.end());
+  const std::size_t q = (reach_of.size() * 99) / 100;
+  std::nth_element(reach_of.begin(), reach_of.begin() + std::ptrdiff_t(q), reach_of.end());
+  const double s_thr = reach_of[q];
+  // midpoints of a pair with gap < s_a + s_b are less than
+  // gap + ½ (l_a + l_b) + r_a + r_b < base + s_a + s_b apart per axis
+  const double base = lmax + 2 * c.max_radius;
+  const double cell = (base + 2 * s_thr) * (1 + 1e-9);
+  const double inv = 1 / cell;
+  auto wide = [&](int k) { return double(c.elem_skin[k]) > s_thr; };
   auto cell_of = [&](int k, int axis) {
     const double mid = 0.5 * (double(s.node_x[axis][k]) + double(s.node_x[axis][k + 1]));
     return std::int64_t(std::floor(mid * inv));
@@ -278,39 +348,69 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
     c.cell_key[i] = cells[i].first;
     c.cell_slot[i] = cells[i].second;
   }
-  const int cap = c.spec.capacity;
-  int overflow = n;  // the first element whose list overflowed
-#pragma omp parallel for num_threads(ex.threads) schedule(static, kGuard) reduction(min : overflow) if (ex.threads > 1)
-  for (int k = 0; k < n; ++k) {
-    int count = 0;
+  // element a's partners b with gap < s_a + s_b among the cells within its
+  // search range (a narrow a: the narrow b; a wide a: all b)
+  auto gather = [&](int k, auto&& take) {
     const int ra = c.elem_rod[k];
-    if (ra >= 0) {
-      const std::int64_t ci = cell_of(k, 0), cj = cell_of(k, 1), cl = cell_of(k, 2);
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const std::uint64_t kk = key(ci + dx, cj + dy, cl + dz);
-            auto it = std::lower_bound(c.cell_key.begin(), c.cell_key.end(), kk);
-            for (std::size_t i = std::size_t(it - c.cell_key.begin()); i < c.cell_key.size() && c.cell_key[i] == kk; ++i) {
-              const int kb = c.cell_slot[i], rb = c.elem_rod[kb];
-              if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self, c.rod_exclusion[ra])) continue;
-              const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
-              if (!(gap < c.skin)) continue;
-              if (count < cap) c.neighbours[std::size_t(k) * std::size_t(cap) + std::size_t(count)] = kb;
-              ++count;
-            }
+    const double range = base + double(c.elem_skin[k]) + (wide(k) ? s_max : s_thr);
+    const int R = std::max(1, int(std::ceil(range * inv)));
+    const std::int64_t ci = cell_of(k, 0), cj = cell_of(k, 1), cl = cell_of(k, 2);
+    for (int dz = -R; dz <= R; ++dz)
+      for (int dy = -R; dy <= R; ++dy)
+        for (int dx = -R; dx <= R; ++dx) {
+          const std::uint64_t kk = key(ci + dx, cj + dy, cl + dz);
+          auto it = std::lower_bound(c.cell_key.begin(), c.cell_key.end(), kk);
+          for (std::size_t i = std::size_t(it - c.cell_key.begin()); i < c.cell_key.size() && c.cell_key[i] == kk; ++i) {
+            const int kb = c.cell_slot[i], rb = c.elem_rod[kb];
+            if (!wide(k) && wide(kb)) continue;  // handed over by kb
+            if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self, c.rod_exclusion[ra])) continue;
+            const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
+            if (double(gap) < double(c.elem_skin[k]) + double(c.elem_skin[kb])) take(kb);
           }
-    }
-    if (count > cap) overflow = std::min(overflow, k);
-    c.neighbour_count[k] = std::min(count, cap);
+        }
+  };
+  const int cap = c.spec.capacity;
+  std::vector<int> count(std::size_t(n), 0);  // candidates found (may exceed cap)
+  auto list = [&](int k) { return c.neighbours.data() + std::size_t(k) * std::size_t(cap); };
+#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, kGuard) if (ex.threads > 1)
+  for (int k = 0; k < n; ++k) {
+    int m = 0;
+    if (c.elem_rod[k] >= 0)
+      gather(k, [&](int kb) {
+        if (m < cap) list(k)[m] = kb;
+        ++m;
+      });
+    count[std::size_t(k)] = m;
+  }
+  // the wide elements' narrow partners, handed over in (partner, wide) order
+  std::vector<std::pair<int, int>> handed;
+  for (int k = 0; k < n; ++k) {
+    if (c.elem_rod[k] < 0 || !wide(k)) continue;
+    const int m = std::min(count[std::size_t(k)], cap);
+    for (int j = 0; j < m; ++j)
+      if (!wide(list(k)[j])) handed.push_back({list(k)[j], k});
+  }
+  std::sort(handed.begin(), handed.end());
+  for (const auto& [kb, k] : handed) {
+    int& m = count[std::size_t(kb)];
+    if (m < cap) list(kb)[m] = k;
+    ++m;
+  }
+  // each list in slot order: the contact sums do not depend on the grid,
+  // the skins or when the lists were built (docs/contact.md)
+  int overflow = n;  // the first element whose list overflowed
+  for (int k = 0; k < n; ++k) {
+    if (count[std::size_t(k)] > cap) overflow = std::min(overflow, k);
+    c.neighbour_count[k] = std::min(count[std::size_t(k)], cap);
+    std::sort(list(k), list(k) + c.neighbour_count[k]);
   }
   if (overflow < n) {
     const int r = c.elem_rod[overflow];
     std::ostringstream os;
     os << "contact: element " << overflow - b.rods[r].offset - 1 << " of rod " << r << " ('" << b.rods[r].name
-       << "') has more than " << cap << " rod-rod candidates within the skin (" << double(c.skin)
-       << " m) at step " << b.state.steps << " (t = " << b.state.time
-       << " s): raise the capacity ([contact] capacity) or lower the skin";
+       << "') has " << count[std::size_t(overflow)] << " rod-rod candidates within its skin ("
+       << double(c.elem_skin[overflow]) << " m), more than the capacity " << cap << ", at step " << b.state.steps
+       << " (t = " << b.state.time << " s): raise the capacity ([contact] capacity) or lower the skin";
     throw std::runtime_error(os.str());
   }
   for (int d = 0; d < 3; ++d)

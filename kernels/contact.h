@@ -306,8 +306,17 @@ MANYRODS_HD inline ContactSide<T> element_side(int k, T s, vec3<T> rho, const Mo
   // the contacts on node k: element k−1's on its far node, element k's on its near one
   const T c0 = T(cv.elem_count_hi[k - 1] + cv.elem_count_lo[k]), c1 = T(cv.elem_count_hi[k] + cv.elem_count_lo[k + 1]);
   const T ce = T(cv.elem_count[k] > 0 ? cv.elem_count[k] : 1);
-  o.w = (T(1) - s) * (T(1) - s) * m.node_inv_mass[k] * (c0 > T(0) ? c0 : T(1)) +
-        s * s * m.node_inv_mass[k + 1] * (c1 > T(0) ? c1 : T(1));
+  const T w0 = m.node_inv_mass[k] * (c0 > T(0) ? c0 : T(1)), w1 = m.node_inv_mass[k + 1] * (c1 > T(0) ? c1 : T(1));
+  o.w = (T(1) - s) * (T(1) - s) * w0 + s * s * w1;
+  // A held node (clamped, driven: w = 0) would make the element a lever
+  // about it: a contact at s → 0 would throw the free node at 1/s times
+  // the velocity the contact needs. Such an element lends a contact at
+  // most the stiffness it lends one at its middle (w ≥ ¼ w_free): the
+  // held end takes the rest (docs/contact.md "Effective mass and mass splitting").
+  if ((w0 == T(0)) != (w1 == T(0))) {
+    const T wmid = T(0.25) * (w0 + w1);
+    o.w = o.w > wmid ? o.w : wmid;
+  }
   const mat3<T> Q = load_frame(st.elem_Q, k);
   const vec3<T> wl = mul_transpose(Q, load3(st.elem_w, k));  // lab angular velocity
   o.v = (T(1) - s) * load3(st.node_v, k) + s * load3(st.node_v, k + 1) + cross(wl, rho);

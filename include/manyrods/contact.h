@@ -88,7 +88,8 @@ struct ContactSpec {
   // restitution (docs/contact.md "The contact law"); > 0.
   double hardness = 4;
   double damping_ratio = 0;  // ζ ≥ 0, added to backward Euler's own damping
-  // rod–rod broad phase: the Verlet skin (m; 0: automatic, docs/contact.md)
+  // rod–rod broad phase: the margin each element's list reaches beyond its
+  // contact range (m; 0: its contact radius, docs/contact.md)
   // and the candidate capacity per element (an overflow is an error).
   double skin = 0;
   int capacity = 64;
@@ -139,8 +140,8 @@ struct ContactData {
   Array<int> neighbour_count;          // [slots]
   std::vector<std::uint64_t> cell_key;  // sorted (cell, slot) pairs of the grid
   std::vector<int> cell_slot;
-  T skin = 0, cell = 0;
-  double max_radius = 0, max_length = 0;  // m: the rods' largest contact radius and rest length
+  Array<T> elem_skin;  // m: element k's reach s_k at the last build (partners with gap < s_a + s_b are listed)
+  double max_radius = 0;  // m: the rods' largest contact radius
   bool built = false;
   std::int64_t rebuilds = 0;
 };
