@@ -6,11 +6,15 @@
 // the ratio is measured on one machine at one time. items_per_second =
 // element-steps per second; counters: contacts (in touch at the end of the
 // warm-up), candidates per element (rod–rod lists), contacts_per_s
-// (contacts × steps per second), sim_s_per_s, and the state hash in the label.
+// (contacts × steps per second), sim_s_per_s, rebuilds_per_step, and the state
+// hash in the label; MANYRODS_BENCH_PROFILE=1 prints the stage times.
 //   headstiff: 1,000 stiff hairs (bench/scenes.h hair, stiff_implicit, double,
 //              half the flexural stable_dt) on a 32 × 32 grid of roots 0.5 mm
 //              apart, horizontal, falling onto a head sphere below them:
 //              off | head | head_rod (head and rod–rod contact)
+//   groom:     1,000 stiff hairs (the same hair) rooted on a 70° cap of a
+//              head (Fibonacci lattice, 5.6 mm apart), leaning down the head,
+//              falling onto it and onto each other (warm-up 0.5 s): off | head | head_rod
 //   bundle16, bundle64: the same with 4 × 4 and 8 × 8 fibers (the side-by-side
 //              with PyElastica, one thread as it has)
 //   bundle:    1,024 fibers × 32 elements (r = 0.25 mm, E = 10 MPa, 0.1 m)
@@ -18,8 +22,10 @@
 //              hanging: off | rod (rod–rod contact between every fiber)
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <numbers>
 #include <string>
 
@@ -36,6 +42,37 @@ std::vector<RodSpec> hair_grid() {
   std::vector<RodSpec> rods;
   for (int i = 0; i < 1024; ++i) {
     RodSpec s = RodSpec::straight({0, 0.0005 * (i % 32), 0.0005 * (i / 32)}, {1, 0, 0}, {0, 0, 1}, 0.2, 32);
+    s.name = "hair";
+    s.section = Section::circle(40e-6);
+    s.material = {1300, 3.9e9, 0.3};
+    s.damping = Damping::shear_extension(1e-3, 1e-3);
+    s.clamped_root = true;
+    s.stiff_implicit = true;
+    rods.push_back(s);
+  }
+  return rods;
+}
+
+std::vector<RodSpec> groom() {
+  const int count = 1000;
+  const double R = 0.09, cap = 70 * std::numbers::pi / 180, golden = std::numbers::pi * (3 - std::sqrt(5.0));
+  std::vector<RodSpec> rods;
+  for (int i = 0; i < count; ++i) {
+    const double z = 1 - (1 - std::cos(cap)) * (i + 0.5) / count, rho = std::sqrt(1 - z * z), phi = golden * i;
+    const Vec3 n{rho * std::cos(phi), rho * std::sin(phi), z};
+    // down the head (towards −z in the tangent plane), x at the crown
+    Vec3 t{-n[0] * z, -n[1] * z, 1 - z * z};
+    for (double& x : t) x = -x;
+    const double tl = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    if (tl < 1e-6) t = {1, 0, 0};
+    else
+      for (double& x : t) x /= tl;
+    Vec3 d;
+    for (int a = 0; a < 3; ++a) d[a] = n[a] + 0.6 * t[a];
+    const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (double& x : d) x /= dl;
+    const Vec3 normal{d[1] * t[2] - d[2] * t[1], d[2] * t[0] - d[0] * t[2], d[0] * t[1] - d[1] * t[0]};
+    RodSpec s = RodSpec::straight({R * n[0], R * n[1], R * n[2]}, d, normal, 0.2, 32);
     s.name = "hair";
     s.section = Section::circle(40e-6);
     s.material = {1300, 3.9e9, 0.3};
@@ -69,20 +106,22 @@ std::vector<RodSpec> twisted_bundle(int side) {
   return rods;
 }
 
-ContactSpec contact_for(const std::string& variant, bool hair) {
+ContactSpec contact_for(const std::string& scene, const std::string& variant) {
   ContactSpec c;
   if (variant == "off") return c;
-  if (hair) {
+  if (scene == "headstiff" || scene == "groom") {
     Collider head;
     head.name = "head";
     head.kind = ColliderKind::sphere;
-    head.center = {0.15, 0.008, -0.1};
-    head.radius = 0.098;
+    head.center = scene == "groom" ? std::array<double, 3>{0, 0, 0} : std::array<double, 3>{0.15, 0.008, -0.1};
+    head.radius = scene == "groom" ? 0.0895 : 0.098;
     head.friction = {0.4, 0.3};
     c.colliders = {head};
   }
   c.rod_rod = variant == "head_rod" || variant == "rod";
-  c.capacity = 512;  // a dense groom piling on the head (docs/contact.md "Limitations": the skin follows the fastest node)
+  // hairs piling on the head: a tip whipping through them at several m/s
+  // lists hundreds of candidates (docs/contact.md "Limitations")
+  c.capacity = 512;
   c.friction = {0.3, 0.2};
   return c;
 }
@@ -91,20 +130,36 @@ template <Terms kT>
 void run_contact(benchmark::State& state, const std::string& scene, const std::string& variant) {
   const int threads = int(state.range(0));
   const Exec ex{threads};
-  const bool hair = scene == "headstiff";
+  const bool hair = scene == "headstiff" || scene == "groom";
   const int side = scene == "bundle16" ? 4 : scene == "bundle64" ? 8 : 32;
-  RodBatch<double> b = build_batch<double>(hair ? hair_grid() : twisted_bundle(side), {0, 0, -9.81});
+  RodBatch<double> b = build_batch<double>(
+      scene == "groom" ? groom() : scene == "headstiff" ? hair_grid() : twisted_bundle(side), {0, 0, -9.81});
   const StableDt lim = stable_dt<kStiffOff>(b);
   const double dt = 0.5 * lim.elastic;
-  if (variant != "off") set_contact(b, contact_for(variant, hair));
+  if (variant != "off") set_contact(b, contact_for(scene, variant));
   // warm up into contact: the hairs' tips reach the head, the fibers settle
-  step_n<kT>(b, dt, hair ? 300 : 100, ex);
+  step_n<kT>(b, dt, scene == "groom" ? 1800 : hair ? 300 : 100, ex);
   const ContactStats cs = contact_stats(b);
-  for (auto _ : state) step_n<kT>(b, dt, 1, ex);
+  const std::int64_t rebuilt = cs.rebuilds;
+  Profile prof;
+  prof.reserve(threads);
+  const Exec pex{threads, std::getenv("MANYRODS_BENCH_PROFILE") ? &prof : nullptr};
+  for (auto _ : state) step_n<kT>(b, dt, 1, pex);
+  if (pex.profile) {
+    const StageTimes t = prof.total();
+    for (int i = 0; i < kStageCount; ++i)
+      if (t.seconds[std::size_t(i)] > 0)
+        std::fprintf(stderr, "  %-14s %8.2f ms/step\n", stage_name(Stage(i)), 1e3 * t.seconds[std::size_t(i)] / double(state.iterations()));
+  }
+  state.counters["rebuilds_per_step"] = double(contact_stats(b).rebuilds - rebuilt) / double(state.iterations());
   state.SetItemsProcessed(state.iterations() * b.element_count());
-  double candidates = 0;
+  double candidates = 0, most = 0;
   if (b.contact.on && b.contact.neighbour_count.size() > 0)
-    for (int k = 0; k < b.slots(); ++k) candidates += b.contact.neighbour_count[k];
+    for (int k = 0; k < b.slots(); ++k) {
+      candidates += b.contact.neighbour_count[k];
+      most = std::max(most, double(b.contact.neighbour_count[k]));
+    }
+  state.counters["candidates_max"] = most;
   state.counters["contacts"] = double(cs.contacts);
   state.counters["max_penetration_m"] = cs.max_penetration;
   state.counters["candidates_per_element"] = candidates / double(b.element_count());
@@ -119,6 +174,9 @@ void run_contact(benchmark::State& state, const std::string& scene, const std::s
 void BM_contact_headstiff_off(benchmark::State& s) { run_contact<kStiffOff>(s, "headstiff", "off"); }
 void BM_contact_headstiff_head(benchmark::State& s) { run_contact<kColliders>(s, "headstiff", "head"); }
 void BM_contact_headstiff_head_rod(benchmark::State& s) { run_contact<kAllContact>(s, "headstiff", "head_rod"); }
+void BM_contact_groom_off(benchmark::State& s) { run_contact<kStiffOff>(s, "groom", "off"); }
+void BM_contact_groom_head(benchmark::State& s) { run_contact<kColliders>(s, "groom", "head"); }
+void BM_contact_groom_head_rod(benchmark::State& s) { run_contact<kAllContact>(s, "groom", "head_rod"); }
 void BM_contact_bundle_off(benchmark::State& s) { run_contact<kStiffOff>(s, "bundle", "off"); }
 void BM_contact_bundle_rod(benchmark::State& s) { run_contact<kRodContact>(s, "bundle", "rod"); }
 // the bundles of the side-by-side with PyElastica's RodRodContact (bench/RESULTS.md)
@@ -132,6 +190,9 @@ void BM_contact_bundle64_rod(benchmark::State& s) { run_contact<kRodContact>(s, 
 BENCHMARK(BM_contact_headstiff_off)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_contact_headstiff_head)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_contact_headstiff_head_rod)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_groom_off)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_groom_head)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_contact_groom_head_rod)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_contact_bundle_off)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_contact_bundle_rod)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_contact_bundle16_off)->ArgName("threads")->Arg(1)->UseRealTime()->MinTime(0.5);

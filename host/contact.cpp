@@ -3,6 +3,7 @@
 // (include/manyrods/contact.h, docs/contact.md).
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -304,7 +305,7 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
   }
   // Each element's reach s_k: its contact range now plus a margin for the
   // motion until the next build (ContactSpec::skin, by default its radius,
-  // and at least 2 h (1 + 2ζ/Ω) v_k: one element's speed widens its own
+  // and at least 2 h (1 + 2ζ/Ω) v_k, some two steps of its motion: one element's speed widens its own
   // list, not everyone's). Pairs with gap < s_a + s_b are kept.
   std::vector<double> reach_of;  // the s_k of the real elements, for the threshold
   double lmax = 0;
@@ -324,50 +325,92 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
   const std::size_t q = (reach_of.size() * 99) / 100;
   std::nth_element(reach_of.begin(), reach_of.begin() + std::ptrdiff_t(q), reach_of.end());
   const double s_thr = reach_of[q];
-  // midpoints of a pair with gap < s_a + s_b are less than
-  // gap + ½ (l_a + l_b) + r_a + r_b < base + s_a + s_b apart per axis
-  const double base = lmax + 2 * c.max_radius;
-  const double cell = (base + 2 * s_thr) * (1 + 1e-9);
-  const double inv = 1 / cell;
-  auto wide = [&](int k) { return double(c.elem_skin[k]) > s_thr; };
-  auto cell_of = [&](int k, int axis) {
-    const double mid = 0.5 * (double(s.node_x[axis][k]) + double(s.node_x[axis][k + 1]));
-    return std::int64_t(std::floor(mid * inv));
-  };
-  auto key = [](std::int64_t i, std::int64_t j, std::int64_t l) {
-    const std::uint64_t m = (1u << 21) - 1, o = 1u << 20;
-    return ((std::uint64_t(i + o) & m) << 42) | ((std::uint64_t(j + o) & m) << 21) | (std::uint64_t(l + o) & m);
-  };
-  std::vector<std::pair<std::uint64_t, int>> cells;
-  for (int k = 0; k < n; ++k)
-    if (c.elem_rod[k] >= 0) cells.push_back({key(cell_of(k, 0), cell_of(k, 1), cell_of(k, 2)), k});
-  std::sort(cells.begin(), cells.end());
-  c.cell_key.resize(cells.size());
-  c.cell_slot.resize(cells.size());
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    c.cell_key[i] = cells[i].first;
-    c.cell_slot[i] = cells[i].second;
+  // The grid holds element midpoints. A partner b with gap < s_a + s_b has
+  // its closest point within s_a + s_b + r_a + r_b of a's segment and its
+  // midpoint ½ l_b beyond that: per axis inside a's bounding box grown by
+  // D_a = s_a + s_b,max + r_a + r_max + ½ l_max. Each element visits the
+  // cells that box covers (a long, thin element visits a slab, not a cube),
+  // row by row along x.
+  auto mid = [&](int k, int axis) { return 0.5 * (double(s.node_x[axis][k]) + double(s.node_x[axis][k + 1])); };
+  double gmin[3] = {1e300, 1e300, 1e300}, gmax[3] = {-1e300, -1e300, -1e300};
+  int real = 0;
+  for (int k = 0; k < n; ++k) {
+    if (c.elem_rod[k] < 0) continue;
+    ++real;
+    for (int a = 0; a < 3; ++a) {
+      gmin[a] = std::min(gmin[a], mid(k, a));
+      gmax[a] = std::max(gmax[a], mid(k, a));
+    }
   }
-  // element a's partners b with gap < s_a + s_b among the cells within its
-  // search range (a narrow a: the narrow b; a wide a: all b)
+  // a dense grid over the midpoints' bounding box, at most ~4 cells per
+  // element (coarser cells only add candidates the tests drop)
+  double cell = 0.5 * (lmax + 2 * c.max_radius + 2 * s_thr);
+  std::int64_t dim[3];
+  for (;;) {
+    double total = 1;
+    for (int a = 0; a < 3; ++a) {
+      dim[a] = std::int64_t(std::floor((gmax[a] - gmin[a]) / cell)) + 1;
+      total *= double(dim[a]);
+    }
+    if (total <= 4.0 * real + 64) break;
+    cell *= 1.25;
+  }
+  const double inv = 1 / cell;
+  auto cell_at = [&](double x, int a) {
+    const double i = std::floor((x - gmin[a]) * inv);
+    return i >= 0 ? (i < double(dim[a] - 1) ? std::int64_t(i) : dim[a] - 1) : std::int64_t(0);  // NaN: 0
+  };
+  auto index = [&](std::int64_t x, std::int64_t y, std::int64_t z) { return std::size_t((z * dim[1] + y) * dim[0] + x); };
+  auto wide = [&](int k) { return double(c.elem_skin[k]) > s_thr; };
+  // counting sort by cell, each cell's elements in slot order
+  c.cell_start.assign(std::size_t(dim[0] * dim[1] * dim[2]) + 1, 0);
+  c.cell_slot.resize(std::size_t(real));
+  std::vector<std::size_t> cell_of(std::size_t(n), 0);
+  for (int k = 0; k < n; ++k) {
+    if (c.elem_rod[k] < 0) continue;
+    cell_of[std::size_t(k)] = index(cell_at(mid(k, 0), 0), cell_at(mid(k, 1), 1), cell_at(mid(k, 2), 2));
+    ++c.cell_start[cell_of[std::size_t(k)] + 1];
+  }
+  for (std::size_t i = 1; i < c.cell_start.size(); ++i) c.cell_start[i] += c.cell_start[i - 1];
+  {
+    std::vector<int> fill(c.cell_start.begin(), c.cell_start.end() - 1);
+    for (int k = 0; k < n; ++k)
+      if (c.elem_rod[k] >= 0) c.cell_slot[std::size_t(fill[cell_of[std::size_t(k)]]++)] = k;
+  }
+  std::array<std::vector<double>, 3> cell_mid;  // the midpoints in grid order (the box test streams them)
+  for (int a = 0; a < 3; ++a) {
+    cell_mid[a].resize(std::size_t(real));
+    for (int i = 0; i < real; ++i) cell_mid[a][std::size_t(i)] = mid(c.cell_slot[std::size_t(i)], a);
+  }
+  // element a's partners b with gap < s_a + s_b among the midpoints in its
+  // box (a narrow a: the narrow b; a wide a: all b)
   auto gather = [&](int k, auto&& take) {
     const int ra = c.elem_rod[k];
-    const double range = base + double(c.elem_skin[k]) + (wide(k) ? s_max : s_thr);
-    const int R = std::max(1, int(std::ceil(range * inv)));
-    const std::int64_t ci = cell_of(k, 0), cj = cell_of(k, 1), cl = cell_of(k, 2);
-    for (int dz = -R; dz <= R; ++dz)
-      for (int dy = -R; dy <= R; ++dy)
-        for (int dx = -R; dx <= R; ++dx) {
-          const std::uint64_t kk = key(ci + dx, cj + dy, cl + dz);
-          auto it = std::lower_bound(c.cell_key.begin(), c.cell_key.end(), kk);
-          for (std::size_t i = std::size_t(it - c.cell_key.begin()); i < c.cell_key.size() && c.cell_key[i] == kk; ++i) {
-            const int kb = c.cell_slot[i], rb = c.elem_rod[kb];
-            if (!wide(k) && wide(kb)) continue;  // handed over by kb
-            if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self, c.rod_exclusion[ra])) continue;
-            const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
-            if (double(gap) < double(c.elem_skin[k]) + double(c.elem_skin[kb])) take(kb);
-          }
+    const double D = double(c.elem_skin[k]) + (wide(k) ? s_max : s_thr) + double(c.elem_radius[k]) + c.max_radius +
+                     0.5 * lmax;
+    double lo[3], hi[3];
+    std::int64_t c0[3], c1[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(double(s.node_x[a][k]), double(s.node_x[a][k + 1])) - D;
+      hi[a] = std::max(double(s.node_x[a][k]), double(s.node_x[a][k + 1])) + D;
+      c0[a] = cell_at(lo[a], a);
+      c1[a] = cell_at(hi[a], a);
+    }
+    for (std::int64_t cz = c0[2]; cz <= c1[2]; ++cz)
+      for (std::int64_t cy = c0[1]; cy <= c1[1]; ++cy) {
+        const int first = c.cell_start[index(c0[0], cy, cz)], last = c.cell_start[index(c1[0], cy, cz) + 1];
+        for (int i = first; i < last; ++i) {
+          const std::size_t u = std::size_t(i);
+          if (!(cell_mid[0][u] >= lo[0] && cell_mid[0][u] <= hi[0] && cell_mid[1][u] >= lo[1] &&
+                cell_mid[1][u] <= hi[1] && cell_mid[2][u] >= lo[2] && cell_mid[2][u] <= hi[2]))
+            continue;
+          const int kb = c.cell_slot[u], rb = c.elem_rod[kb];
+          if (!wide(k) && wide(kb)) continue;  // handed over by kb
+          if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self, c.rod_exclusion[ra])) continue;
+          const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
+          if (double(gap) < double(c.elem_skin[k]) + double(c.elem_skin[kb])) take(kb);
         }
+      }
   };
   const int cap = c.spec.capacity;
   std::vector<int> count(std::size_t(n), 0);  // candidates found (may exceed cap)

@@ -138,7 +138,7 @@ struct ContactData {
   std::array<Array<T>, 3> node_x_ref;  // m: node positions at the last rebuild
   Array<int> neighbours;               // [slots × capacity] candidate partner slots of element k, in order
   Array<int> neighbour_count;          // [slots]
-  std::vector<std::uint64_t> cell_key;  // sorted (cell, slot) pairs of the grid
+  std::vector<int> cell_start;  // the grid: cell i holds cell_slot[cell_start[i] .. cell_start[i+1])
   std::vector<int> cell_slot;
   Array<T> elem_skin;  // m: element k's reach s_k at the last build (partners with gap < s_a + s_b are listed)
   double max_radius = 0;  // m: the rods' largest contact radius
