@@ -364,6 +364,7 @@ void Writer::write_checkpoint(const Checkpoint& c) {
   if (!(float_only) || !c.name.empty()) put(#name, c.name, n);
   MANYRODS_STATE_FIELDS(MANYRODS_PUT)
 #undef MANYRODS_PUT
+  if (!c.contact_work.empty()) put("contact_work", c.contact_work, 1);
   if (c.probe_count > 0) {
     const hsize_t p = hsize_t(c.probe_count), n = hsize_t(c.probe_samples);
     if (c.probe_time.size() != p * n || c.probe_tip.size() != p * n * 3 || c.probe_max_strain.size() != p ||
@@ -464,6 +465,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (!(float_only) || H5Lexists(g.get(), #name, H5P_DEFAULT) > 0) get(#name, c.name, n);
   MANYRODS_STATE_FIELDS(MANYRODS_GET)
 #undef MANYRODS_GET
+  if (H5Lexists(g.get(), "contact_work", H5P_DEFAULT) > 0) get("contact_work", c.contact_work, 1);
   if (H5Lexists(g.get(), "probes", H5P_DEFAULT) > 0) {
     const Id pg = checked(H5Gopen2(g.get(), "probes", H5P_DEFAULT), H5Gclose, path,
                           "cannot open /checkpoint/probes");

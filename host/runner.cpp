@@ -128,6 +128,13 @@ class SceneRun {
   }
     MANYRODS_STATE_FIELDS(MANYRODS_RESTORE)
 #undef MANYRODS_RESTORE
+    // the contact work so far (a file without it, or without contact, starts it at zero)
+    if (b_.contact.on && !c.contact_work.empty()) {
+      if (c.contact_work.size() != b_.contact.work.size() * sizeof(T))
+        throw SceneError(s_.source + ": the checkpoint's contact_work has " + std::to_string(c.contact_work.size()) +
+                         " bytes, the batch needs " + std::to_string(b_.contact.work.size() * sizeof(T)));
+      from_bytes(b_.contact.work, c.contact_work);
+    }
     b_.state.time = c.time;
     b_.state.steps = c.steps;
     dissipated_ = c.dissipated;
@@ -286,6 +293,7 @@ class SceneRun {
   if (field_size(b_.state.name) > 0) to_bytes(b_.state.name, c.name);
     MANYRODS_STATE_FIELDS(MANYRODS_SAVE)
 #undef MANYRODS_SAVE
+    if (b_.contact.on) to_bytes(b_.contact.work, c.contact_work);
     if (probes_.empty()) return c;
     c.probe_count = std::int64_t(probes_.size());
     c.probe_samples = std::int64_t(probes_[0].time.size());

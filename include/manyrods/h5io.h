@@ -15,7 +15,8 @@
 //                         node_x, node_v [3, slots], elem_Q [9, slots],
 //                         elem_w [3, slots], node_xc [3, slots] (float) in the run's
 //                         precision, raw slot arrays (ghosts included), and
-//                         attributes time, steps, dt, dissipated, ...
+//                         attributes time, steps, dt, dissipated, ...;
+//                         with contact contact_work [1, slots] (per slot);
 //                         and, for a sweep, probes/{time, tip, max_strain,
 //                         dissipated, dissipation_rate} (its records so far)
 //   /sweep                (manyrods sweep) parameters and summary columns
@@ -91,6 +92,10 @@ struct Checkpoint {
 #define MANYRODS_CHECKPOINT_MEMBER(name, n, fill, float_only, doc) std::vector<unsigned char> name;
   MANYRODS_STATE_FIELDS(MANYRODS_CHECKPOINT_MEMBER)
 #undef MANYRODS_CHECKPOINT_MEMBER
+  // With contact: the work of the contact impulses per slot so far
+  // (ContactData::work, [1][slots] as bytes; empty: none), so that a
+  // continued run's /energy/contact_work goes on bit for bit.
+  std::vector<unsigned char> contact_work;
   // A sweep's probe records up to this state (/checkpoint/probes; all
   // probes are sampled together): time [probes, samples], tip
   // [probes, samples, 3], and per probe max_strain, dissipated and the last
