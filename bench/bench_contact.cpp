@@ -39,17 +39,23 @@ namespace {
 
 constexpr Terms kStiffOff = kAllTerms;
 
+// A stiff human hair (bench/scenes.h hair): 0.2 m, 32 elements, r = 40 µm,
+// clamped at its root, shear, stretch and twist implicit.
+RodSpec stiff_hair(const Vec3& root, const Vec3& dir, const Vec3& normal) {
+  RodSpec s = RodSpec::straight(root, dir, normal, 0.2, 32);
+  s.name = "hair";
+  s.section = Section::circle(40e-6);
+  s.material = {1300, 3.9e9, 0.3};
+  s.damping = Damping::shear_extension(1e-3, 1e-3);
+  s.clamped_root = true;
+  s.stiff_implicit = true;
+  return s;
+}
+
 std::vector<RodSpec> hair_grid() {
   std::vector<RodSpec> rods;
   for (int i = 0; i < 1024; ++i) {
-    RodSpec s = RodSpec::straight({0, 0.0005 * (i % 32), 0.0005 * (i / 32)}, {1, 0, 0}, {0, 0, 1}, 0.2, 32);
-    s.name = "hair";
-    s.section = Section::circle(40e-6);
-    s.material = {1300, 3.9e9, 0.3};
-    s.damping = Damping::shear_extension(1e-3, 1e-3);
-    s.clamped_root = true;
-    s.stiff_implicit = true;
-    rods.push_back(s);
+    rods.push_back(stiff_hair({0, 0.0005 * (i % 32), 0.0005 * (i / 32)}, {1, 0, 0}, {0, 0, 1}));
   }
   return rods;
 }
@@ -73,14 +79,7 @@ std::vector<RodSpec> groom() {
     const double dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (double& x : d) x /= dl;
     const Vec3 normal{d[1] * t[2] - d[2] * t[1], d[2] * t[0] - d[0] * t[2], d[0] * t[1] - d[1] * t[0]};
-    RodSpec s = RodSpec::straight({R * n[0], R * n[1], R * n[2]}, d, normal, 0.2, 32);
-    s.name = "hair";
-    s.section = Section::circle(40e-6);
-    s.material = {1300, 3.9e9, 0.3};
-    s.damping = Damping::shear_extension(1e-3, 1e-3);
-    s.clamped_root = true;
-    s.stiff_implicit = true;
-    rods.push_back(s);
+    rods.push_back(stiff_hair({R * n[0], R * n[1], R * n[2]}, d, normal));
   }
   return rods;
 }
