@@ -304,15 +304,16 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
     if (!stale) return;
   }
   // Each element's reach s_k: its contact range now plus a margin for the
-  // motion until the next build (ContactSpec::skin, by default its radius,
-  // and at least 2 h (1 + 2ζ/Ω) v_k, some two steps of its motion: one element's speed widens its own
-  // list, not everyone's). Pairs with gap < s_a + s_b are kept.
+  // motion until the next build (ContactSpec::skin, by default half its
+  // radius, and at least 2 h (1 + 2ζ/Ω) v_k, some two steps of its motion:
+  // one element's speed widens its own list, not everyone's). Pairs with
+  // gap < s_a + s_b are kept (at rest: 2 r for equal radii).
   std::vector<double> reach_of;  // the s_k of the real elements, for the threshold
   double lmax = 0;
   for (int k = 0; k < n; ++k) {
     if (c.elem_rod[k] < 0) continue;
     const double v = double(contact_detail::max_speed(s, k)), r = double(c.elem_radius[k]);
-    const double margin = std::max(c.spec.skin > 0 ? c.spec.skin : r, 2 * reach * v);
+    const double margin = std::max(c.spec.skin > 0 ? c.spec.skin : 0.5 * r, 2 * reach * v);
     c.elem_skin[k] = T(contact_need(c, s, k, reach) + margin);
     reach_of.push_back(double(c.elem_skin[k]));
     lmax = std::max(lmax, double(norm(load3(s.node_x, k + 1) - load3(s.node_x, k))));

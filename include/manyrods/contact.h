@@ -89,7 +89,7 @@ struct ContactSpec {
   double hardness = 4;
   double damping_ratio = 0;  // ζ ≥ 0, added to backward Euler's own damping
   // rod–rod broad phase: the margin each element's list reaches beyond its
-  // contact range (m; 0: its contact radius, docs/contact.md)
+  // contact range (m; 0: half its contact radius, docs/contact.md)
   // and the candidate capacity per element (an overflow is an error).
   double skin = 0;
   int capacity = 64;
