@@ -7,7 +7,8 @@
 // element-steps per second; counters: contacts (in touch at the end of the
 // warm-up), candidates per element (rod–rod lists), contacts_per_s
 // (contacts × steps per second), sim_s_per_s, rebuilds_per_step, and the state
-// hash in the label; MANYRODS_BENCH_PROFILE=1 prints the stage times.
+// hash in the label; stage_<name>: each stage's share of the step
+// (bench/stage_counters.h, 64 steps after the timed loop).
 //   headstiff: 1,000 stiff hairs (bench/scenes.h hair, stiff_implicit, double,
 //              half the flexural stable_dt) on a 32 × 32 grid of roots 0.5 mm
 //              apart, horizontal, falling onto a head sphere below them:
@@ -26,11 +27,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <numbers>
 #include <string>
 
 #include "scenes.h"
+#include "stage_counters.h"
 
 using namespace manyrods;
 using namespace manyrods::bench;
@@ -141,16 +142,7 @@ void run_contact(benchmark::State& state, const std::string& scene, const std::s
   step_n<kT>(b, dt, scene == "groom" ? 1800 : hair ? 300 : 100, ex);
   const ContactStats cs = contact_stats(b);
   const std::int64_t rebuilt = cs.rebuilds;
-  Profile prof;
-  prof.reserve(threads);
-  const Exec pex{threads, std::getenv("MANYRODS_BENCH_PROFILE") ? &prof : nullptr};
-  for (auto _ : state) step_n<kT>(b, dt, 1, pex);
-  if (pex.profile) {
-    const StageTimes t = prof.total();
-    for (int i = 0; i < kStageCount; ++i)
-      if (t.seconds[std::size_t(i)] > 0)
-        std::fprintf(stderr, "  %-14s %8.2f ms/step\n", stage_name(Stage(i)), 1e3 * t.seconds[std::size_t(i)] / double(state.iterations()));
-  }
+  for (auto _ : state) step_n<kT>(b, dt, 1, ex);
   state.counters["rebuilds_per_step"] = double(contact_stats(b).rebuilds - rebuilt) / double(state.iterations());
   state.SetItemsProcessed(state.iterations() * b.element_count());
   double candidates = 0, most = 0;
@@ -169,6 +161,7 @@ void run_contact(benchmark::State& state, const std::string& scene, const std::s
   char label[96];
   std::snprintf(label, sizeof label, "hash=%016llx dt=%.3g", (unsigned long long)state_hash(b), dt);
   state.SetLabel(label);
+  stage_counters<kT>(state, b, dt, ex);
 }
 
 void BM_contact_headstiff_off(benchmark::State& s) { run_contact<kStiffOff>(s, "headstiff", "off"); }

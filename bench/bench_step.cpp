@@ -15,6 +15,7 @@
 #include <string>
 
 #include "scenes.h"
+#include "stage_counters.h"
 
 using namespace manyrods;
 using namespace manyrods::bench;
@@ -32,20 +33,6 @@ namespace {
 constexpr double kValuesPerSlot = 180, kValuesImplicit = 130;
 
 constexpr Terms kNoKV{true, true, true, true, false, true, true};
-
-// Where the step's time goes: after the timed loop, 64 more steps with a
-// Profile (include/manyrods/profile.h); each stage's share of the step's
-// thread-seconds becomes a counter stage_<name> (0…1).
-template <Terms kT, Viscous kV, class T>
-void stage_counters(benchmark::State& state, RodBatch<T>& b, T dt, const Exec& ex) {
-  Profile profile;
-  step_n<kT, kV>(b, dt, 64, Exec{ex.threads, &profile});
-  const StageTimes st = profile.total();
-  // every stage, 0 where it did not run (the CSV reporter needs the same
-  // counters in every row)
-  for (int i = 0; i < kStageCount; ++i)
-    state.counters[std::string("stage_") + stage_name(Stage(i))] = st.seconds[std::size_t(i)] / st.total();
-}
 
 // kBlock > 1: step_n with kBlock steps per call (temporal blocking), the way
 // advance() steps; items still count element-steps.
