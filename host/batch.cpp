@@ -80,6 +80,8 @@ void validate_rod(const RodSpec& s) {
     validate_frame(s.frames[e], "frames[" + std::to_string(e) + "]");
   }
   if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
+  if (s.tip_frame) validate_frame(*s.tip_frame, "tip_frame");
+  if (s.tip_frame && !s.clamped_tip) fail("tip_frame: given for a tip that is not clamped (set clamped_tip)");
   if (s.root_motion && !s.clamped_root) fail("root_motion: a driven root must be clamped (set clamped_root)");
   if (s.root_motion) s.root_motion->validate();
   if (!std::isfinite(s.shear_stretch_scale) || !(s.shear_stretch_scale > 0))
@@ -378,6 +380,7 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
   info.name = s.name;
   info.elements = s.elements();
   info.clamped_root = s.clamped_root;
+  info.clamped_tip = s.clamped_tip;
   info.stiff_implicit = s.stiff_implicit;
   info.driven = s.root_motion != nullptr;
   try {
@@ -387,6 +390,9 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
     info.contact_radius = contact_radius(s.section);
     info.tau = resolve_damping(s.damping, info.elastic);
     info.damped = info.tau.shear > 0 || info.tau.extension > 0;
+    if (s.clamped_tip && s.root_motion && (s.stiff_implicit || info.damped))
+      fail("clamped_tip: a clamped tip with a driven root is not supported on a stiff or damped rod "
+           "(the implicit solve runs relative to the root's rigid motion, which would carry the tip along)");
   } catch (const InputError& e) {
     throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
   }
@@ -464,7 +470,7 @@ struct RodGeometry {
   }
 };
 
-// Nodes: lumped masses (a clamped root has no inverse mass), positions and
+// Nodes: lumped masses (a clamped root or tip has no inverse mass), positions and
 // velocities, and the still root ghost node.
 template <class T>
 void fill_nodes(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const RodGeometry& g) {
@@ -476,10 +482,11 @@ void fill_nodes(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const Rod
     if (j > 0) mass += 0.5 * rho * area * g.length[j - 1];
     if (j < n) mass += 0.5 * rho * area * g.length[j];
     b.model.node_mass[k] = T(mass);
-    b.model.node_inv_mass[k] = (j == 0 && s.clamped_root) ? T(0) : T(1 / mass);
+    const bool held = (j == 0 && s.clamped_root) || (j == n && s.clamped_tip);
+    b.model.node_inv_mass[k] = held ? T(0) : T(1 / mass);
     for (int d = 0; d < 3; ++d) {
       b.state.node_x[d][k] = T(s.nodes[j][d]);
-      b.state.node_v[d][k] = (s.velocities.empty() || (j == 0 && s.clamped_root)) ? T(0) : T(s.velocities[j][d]);
+      b.state.node_v[d][k] = (s.velocities.empty() || held) ? T(0) : T(s.velocities[j][d]);
     }
   }
   for (int d = 0; d < 3; ++d) b.state.node_x[d][o] = T(s.nodes[0][d]);  // root ghost node: finite, still
@@ -487,7 +494,7 @@ void fill_nodes(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const Rod
 
 // Elements: rest length and strain, C_F, retardation times, inertia, frames
 // and angular velocities; the root ghost holds the clamp frame, the tip
-// ghost a copy of the last frame.
+// ghost the tip's clamp frame (a copy of the last frame unless given).
 template <class T>
 void fill_elements(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const RodGeometry& g) {
   const int n = info.elements, o = info.offset;
@@ -513,15 +520,17 @@ void fill_elements(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const 
     for (int i = 0; i < 9; ++i) b.state.elem_Q[i][k] = T(s.frames[e][i]);
   }
   const Mat3 root = s.root_frame ? *s.root_frame : s.frames[0];
+  const Mat3 tip = s.tip_frame ? *s.tip_frame : s.frames[n - 1];
   for (int i = 0; i < 9; ++i) {
     b.state.elem_Q[i][o] = T(root[i]);
-    b.state.elem_Q[i][o + n + 1] = T(s.frames[n - 1][i]);
+    b.state.elem_Q[i][o + n + 1] = T(tip[i]);
   }
 }
 
 // Voronoi points: interior j joins elements j and j+1 (slot o+2+j); the root
 // one ties element 0 to the clamp frame of a clamped rod (zero stiffness for
-// a free root); rest curvature from the given frames unless given.
+// a free root), the tip one element n−1 to the clamp frame of a clamped tip;
+// rest curvature from the given frames unless given.
 template <class T>
 void fill_joints(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const RodGeometry& g) {
   const int n = info.elements, o = info.offset;
@@ -549,7 +558,13 @@ void fill_joints(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const Ro
   } else {
     b.model.vor_rest_length[o + 1] = T(0.5 * g.length[0]);
   }
-  b.model.vor_rest_length[o + n + 1] = T(0.5 * g.length[n - 1]);
+  if (s.clamped_tip) {
+    const double d_hat = 0.5 * g.length[n - 1];
+    const Mat3 tip = s.tip_frame ? *s.tip_frame : s.frames[n - 1];
+    set_vor(o + n + 1, d_hat, discrete_curvature(g.frame[n - 1], to_eigen(tip), d_hat));
+  } else {
+    b.model.vor_rest_length[o + n + 1] = T(0.5 * g.length[n - 1]);
+  }
 }
 
 }  // namespace

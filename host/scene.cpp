@@ -747,6 +747,7 @@ struct Pending {
   int elements;
   Vec3 u0;
   bool curved, clamped, stiff = false;
+  bool clamped_tip = false;
   double scale;
   Section section;
   Material material;
@@ -778,15 +779,20 @@ void check_size(const std::string& source, std::int64_t slots, std::int64_t elem
                      num(double(pages) * double(page) / 1e9) + " GB of memory");
 }
 
-// The root (free, clamped or driven) and the tip loads of a group.
+// The root (free, clamped or driven), the tip (free or clamped) and the tip
+// loads of a group.
 void parse_group_ends(const Table& g, Pending& p) {
   const Root root = parse_root(g);
   p.clamped = root.clamped;
   p.motion = root.motion;
+  if (g.has("tip")) p.clamped_tip = g.string("tip", {"clamped", "free"}) == "clamped";
   p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
+  if (p.clamped_tip && to_e(p.g.tip_force).norm() > 0)
+    g.fail("tip_force", "acts on the tip node, which tip = \"clamped\" holds fixed");
   if (g.has("initial_tip_force")) {
     if (!p.clamped)
       g.fail("initial_tip_force", "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
+    if (p.clamped_tip) g.fail("initial_tip_force", "needs tip = \"free\" (a clamped tip carries no tip load)");
     p.g.has_initial_tip_force = true;
     p.g.initial_tip_force = g.vec3("initial_tip_force");
   }
@@ -858,6 +864,7 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
     r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
     r.shear_stretch_scale = p.scale;
     r.clamped_root = p.clamped;
+    r.clamped_tip = p.clamped_tip;
     r.root_motion = p.motion;
     r.stiff_implicit = p.stiff;
     sc.rods.push_back(std::move(r));
@@ -893,7 +900,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     const toml::table& gt = *groups->get(gi)->as_table();
     const Table g(ctx, gt, "rods." + std::to_string(gi),
                   {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
-                   "section", "material", "damping", "rest_curvature", "root", "tip_force",
+                   "section", "material", "damping", "rest_curvature", "root", "tip", "tip_force",
                    "initial_tip_force", "terms", "shear_stretch_scale", "stiff", "friction"});
     Pending p = parse_group(g, gt, gi, sc.sim);
     slots += std::int64_t(p.g.count) * (p.elements + 2);

@@ -63,7 +63,7 @@ void apply_term_switches(RodBatch<T>& b, int rod, const TermSwitches& t) {
     if (!t.shear) b.model.elem_stiffness[0][k] = b.model.elem_stiffness[1][k] = T(0);
     if (!t.stretch) b.model.elem_stiffness[2][k] = T(0);
   }
-  for (int j = -1; j + 1 < n; ++j) {
+  for (int j = -1; j < n; ++j) {  // root joint, interior joints, tip joint
     const int k = j < 0 ? b.root_vor_index(rod) : b.vor_index(rod, j);
     if (!t.bend) b.model.vor_stiffness[0][k] = b.model.vor_stiffness[1][k] = T(0);
     if (!t.twist) b.model.vor_stiffness[2][k] = T(0);
@@ -79,7 +79,7 @@ std::string static_key(const RodSpec& r, const RodGroup& g, const Vec3& gravity)
     for (double x : q) os << x << ',';
   os << int(r.section.shape) << ',' << r.section.a << ',' << r.section.b << ',' << r.material.density << ','
      << r.material.youngs_modulus << ',' << r.material.poisson_ratio << ',' << r.material.shear_modulus << ','
-     << r.shear_stretch_scale << ',' << r.clamped_root << ';';
+     << r.shear_stretch_scale << ',' << r.clamped_root << ',' << r.clamped_tip << ';';
   const TermSwitches& t = g.terms;
   os << t.shear << t.stretch << t.bend << t.twist << t.gravity << ';';
   v3(g.initial_tip_force);

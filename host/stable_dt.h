@@ -53,22 +53,25 @@ std::pair<double, double> stiff_rod_bound(const RodBatch<T>& b, int r) {
     mass[j] = b.model.node_inv_mass[k] == 0 ? 0.0 : double(b.model.node_mass[k]);
   }
   auto length = [&](int e) { return double(b.model.elem_rest_length[b.elem_index(r, e)]); };
-  // joint j = −1 (root, at node 0: clamp frame and element 0) … n − 2
-  for (int j = -1; j + 1 < n; ++j) {
+  // joint j = −1 (root, at node 0: clamp frame and element 0) … n − 2, and
+  // n − 1 (tip, at node n: element n − 1 and the tip's clamp frame; zero
+  // stiffness unless the tip is clamped)
+  for (int j = -1; j < n; ++j) {
     const int k = j < 0 ? b.root_vor_index(r) : b.vor_index(r, j);
     const double d = b.model.vor_rest_length[k];
     const double B = std::max(double(b.model.vor_stiffness[0][k]), double(b.model.vor_stiffness[1][k]));
     const double tau = kT.kelvin_voigt ? std::max(double(b.model.vor_tau[0][k]), double(b.model.vor_tau[1][k])) : 0.0;
-    // nodes j, j+1, j+2 (the root joint's "element −1" is the fixed clamp frame)
-    const double la = j < 0 ? 0.0 : 1 / (length(j) * d), lb = 1 / (length(j + 1) * d);
+    // nodes j, j+1, j+2 (the root joint's "element −1" and the tip joint's
+    // "element n" are the fixed clamp frames)
+    const double la = j < 0 ? 0.0 : 1 / (length(j) * d), lb = j + 1 < n ? 1 / (length(j + 1) * d) : 0.0;
     const double a[3] = {la, la + lb, lb};
     for (int p = 0; p < 3; ++p) {
       const int i = j + p;
-      if (i < 0 || mass[i] == 0) continue;
+      if (i < 0 || i > n || mass[i] == 0) continue;
       double s = 0;
       for (int q = 0; q < 3; ++q) {
         const int m = j + q;
-        if (m >= 0 && mass[m] != 0) s += B * d * a[p] * a[q] / std::sqrt(mass[i] * mass[m]);
+        if (m >= 0 && m <= n && mass[m] != 0) s += B * d * a[p] * a[q] / std::sqrt(mass[i] * mass[m]);
       }
       rows[i] += s;
       rows_tau[i] += tau * s;
@@ -136,8 +139,9 @@ std::pair<double, double> explicit_rod_bound(const RodBatch<T>& b, int r) {
     for (int a = 0; a < 3; ++a) tau = std::max(tau, double(b.model.elem_tau[a][k]));
     accumulate(K, dof, kT.kelvin_voigt ? tau : 0.0);
   }
-  // joints: the root joint (clamp: only element 0) and the interior ones
-  for (int j = -1; j + 1 < n; ++j) {
+  // joints: the root joint (clamp: only element 0), the interior ones and
+  // the tip joint (clamp: only element n − 1; zero stiffness for a free tip)
+  for (int j = -1; j < n; ++j) {
     const int k = j < 0 ? b.root_vor_index(r) : b.vor_index(r, j);
     const double d = b.model.vor_rest_length[k];
     const Eigen::Vector3d c(kT.bend ? double(b.model.vor_stiffness[0][k]) : 0.0,
@@ -145,9 +149,11 @@ std::pair<double, double> explicit_rod_bound(const RodBatch<T>& b, int r) {
                             kT.twist ? double(b.model.vor_stiffness[2][k]) : 0.0);
     double tau = 0;
     for (int a = 0; a < 3; ++a) tau = std::max(tau, double(b.model.vor_tau[a][k]));
-    if (j < 0) {
+    if (j < 0 || j + 1 == n) {
+      const int e = j < 0 ? 0 : n - 1;
       const Eigen::MatrixXd K = Eigen::Matrix3d(c.asDiagonal()) / d;
-      accumulate(K, {3 * (n + 1), 3 * (n + 1) + 1, 3 * (n + 1) + 2}, kT.kelvin_voigt ? tau : 0.0);
+      accumulate(K, {3 * (n + 1) + 3 * e, 3 * (n + 1) + 3 * e + 1, 3 * (n + 1) + 3 * e + 2},
+                 kT.kelvin_voigt ? tau : 0.0);
       continue;
     }
     Eigen::Matrix<double, 3, 6> C;

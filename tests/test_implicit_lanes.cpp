@@ -197,8 +197,8 @@ void compare_rod(Checker& ck, const RodBatch<T>& got, const RodBatch<T>& want, i
 }
 
 // W random rods: lane 0 clamped, lane 1 free, lane 2 undamped, lane 3 stiff,
-// lane 4 with joints up to 2.5 rad (general path), the others random (clamped
-// or not, stiff or not, turns up to 0.4 rad). Lane l has elements[l] elements.
+// lane 4 with joints up to 2.5 rad (general path), lanes 2 and 5 with a
+// clamped tip, the others random (clamped or not, stiff or not, turns up to 0.4 rad). Lane l has elements[l] elements.
 std::vector<RodSpec> lane_rods(std::mt19937& rng, int W, const std::vector<int>& elements) {
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<RodSpec> rods;
@@ -208,6 +208,7 @@ std::vector<RodSpec> lane_rods(std::mt19937& rng, int W, const std::vector<int>&
     const double tau = l == 2 ? 0 : std::pow(10.0, -3 + 2 * u(rng));  // 1e-3 … 0.1 s
     const double turn = l == 4 ? 2.5 : 0.4;
     rods.push_back(random_rod(rng, elements[l], l == 1 ? false : clamped, tau, stiff, turn));
+    rods.back().clamped_tip = l == 5 || l == 2;  // held at the tip only (2) or maybe at both ends (5)
   }
   return rods;
 }
@@ -323,6 +324,7 @@ std::vector<RodSpec> mixed_rods(unsigned seed) {
     for (int i = 0; i < count; ++i) {
       const double tau = u(rng) < 0.1 ? 0 : std::pow(10.0, -3 + 2 * u(rng));
       rods.push_back(random_rod(rng, n, u(rng) < 0.7, tau, u(rng) < 0.2, 0.3));
+      rods.back().clamped_tip = i % 3 == 1;  // some held at both ends
     }
   rods.push_back(random_rod(rng, kSegmentSlots + 50, true, 0.02, false, 0.02));
   return rods;

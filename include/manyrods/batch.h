@@ -11,7 +11,9 @@
 // Node k lies between elements k−1 and k; Voronoi point k joins elements k−1
 // and k. The root ghost element holds the clamp frame of a clamped rod, and
 // the root Voronoi point (length l̂_0/2, the stiffness of element 0) ties
-// element 0 to it; for a free root its stiffness is zero. Ghost entries have
+// element 0 to it; for a free root its stiffness is zero. A clamped tip is the
+// mirror image: the tip ghost element holds its clamp frame and the tip
+// Voronoi point (length l̂_{n−1}/2) ties element n−1 to it. Ghost entries have
 // zero mass, stiffness and inverse inertia, so a kernel sweeps all slots with
 // no branch at rod boundaries and ghosts never change the result. The slot
 // count is padded to a multiple of the kernel block (64).
@@ -47,6 +49,12 @@ struct RodSpec {
   // unshearable rod (the elastica case of docs/validation.md). The viscous V_F scales with it.
   double shear_stretch_scale = 1;
   bool clamped_root = false;          // node 0 fixed, frame fixed at s = 0
+  // Node n fixed, frame fixed at s = L (a cable between two connectors, a
+  // fiber held at both ends). Static: with a driven root it cannot take part
+  // in the implicit solve (a stiff or damped rod), which would move it with
+  // the root's rigid motion (kernels/viscous_implicit.h rigid_shift).
+  bool clamped_tip = false;
+  std::optional<Mat3> tip_frame;      // clamp frame at s = L (default: frames[n−1])
   // Stiff rods (hair, wire: shear, stretch and twist far stiffer than
   // bending): integrate shear, stretch and twist linearly implicitly so that
   // the stable step is the bending one (≈ 1e-4 s and more for hair instead of
@@ -127,6 +135,7 @@ struct RodInfo {
   int elements = 0;
   int offset = 0;  // o_r, first slot
   bool clamped_root = false;
+  bool clamped_tip = false;
   bool stiff_implicit = false;  // RodSpec::stiff_implicit
   bool damped = false;          // some retardation time > 0
   bool driven = false;          // RodSpec::root_motion set (an entry of RodBatch::driven)
@@ -228,6 +237,7 @@ class RodBatch {
   // interior Voronoi point j ∈ [0, n−1) joins elements j and j+1
   int vor_index(int rod, int j) const { return rods[rod].offset + 2 + j; }
   int root_vor_index(int rod) const { return rods[rod].offset + 1; }
+  int tip_vor_index(int rod) const { return rods[rod].offset + rods[rod].elements + 1; }
 
   Vec3 position(int rod, int node) const;
   Vec3 velocity(int rod, int node) const;
