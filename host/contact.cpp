@@ -153,7 +153,8 @@ void check_start_apart(RodBatch<T>& b) {
       for (int j = 0; j < c.neighbour_count[k]; ++j) {
         const int kb = c.neighbours[std::size_t(k) * std::size_t(c.spec.capacity) + std::size_t(j)];
         if (kb < k) continue;
-        const T gap = pair_geometry(k, kb, s.node_x, c.elem_radius.data()).gap;
+        const T gap =
+            pair_geometry(k, kb, s.node_x, c.elem_radius.data(), pair_near(k, kb, c.elem_rod.data(), c.rod_near.data())).gap;
         if (!(gap < T(-0.01) * (c.elem_radius[k] + c.elem_radius[kb]))) continue;
         const int rb = c.elem_rod[kb];
         std::ostringstream os;
@@ -242,7 +243,7 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   if (spec.rod_rod || spec.self) c.neighbours.resize(n * std::size_t(spec.capacity), -1);
   c.rod_mu.assign(4 * std::size_t(b.rod_count()), T(0));
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);
-  c.rod_exclusion.assign(std::size_t(b.rod_count()), 1);
+  c.rod_near.assign(std::size_t(b.rod_count()), 1);
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodInfo& info = b.rods[r];
     const bool own = !spec.rod_friction.empty() && spec.rod_has_friction[r];
@@ -257,9 +258,9 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
       c.max_radius = std::max(c.max_radius, info.contact_radius);
     }
     // the tightest loop a tube of radius r can make has radius r: elements
-    // less than half its circumference (π r) apart along the rod are near
-    // neighbours, not contacts (docs/contact.md "Self contact")
-    c.rod_exclusion[r] = 1 + int(std::ceil(std::numbers::pi * info.contact_radius / lmin));
+    // less than half its circumference (π r) apart along the rod touch at
+    // the chord of that loop (kernels/contact.h near_contact_distance)
+    c.rod_near[r] = 1 + int(std::ceil(std::numbers::pi * info.contact_radius / lmin));
   }
   b.contact = std::move(c);
   check_start_outside(b);
@@ -407,7 +408,8 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
             continue;
           const int kb = c.cell_slot[u], rb = c.elem_rod[kb];
           if (!wide(k) && wide(kb)) continue;  // handed over by kb
-          if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self, c.rod_exclusion[ra])) continue;
+          if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self)) continue;
+          // (the gap at r_a + r_b: a near pair's is larger, so the list holds it early)
           const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
           if (double(gap) < double(c.elem_skin[k]) + double(c.elem_skin[kb])) take(kb);
         }
@@ -490,7 +492,8 @@ ContactStats contact_stats(const RodBatch<T>& b) {
       for (int j = 0; j < c.neighbour_count[k]; ++j) {
         const int kb = c.neighbours[std::size_t(k) * std::size_t(c.spec.capacity) + std::size_t(j)];
         if (kb < k) continue;  // each pair once, in the stage's order (lo = k)
-        note(pair_geometry(k, kb, s.node_x, c.elem_radius.data()).gap, r, e);
+        note(pair_geometry(k, kb, s.node_x, c.elem_radius.data(), pair_near(k, kb, c.elem_rod.data(), c.rod_near.data())).gap,
+             r, e);
       }
     }
   return st;

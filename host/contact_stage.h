@@ -38,6 +38,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   v.collider_count = int(c.spec.colliders.size());
   v.elem_radius = c.elem_radius.data();
   v.elem_rod = c.elem_rod.data();
+  v.rod_near = c.rod_near.data();
   v.rod_mu = c.rod_mu.data();
   v.rod_mu_own = c.rod_mu_own.data();
   v.elem_count = c.elem_count.data();

@@ -71,6 +71,7 @@ struct ContactView {
   int collider_count = 0;
   const T* elem_radius = nullptr;
   const int* elem_rod = nullptr;
+  const int* rod_near = nullptr;  // [rods] ContactData::rod_near
   const T* rod_mu = nullptr;  // [4 × rods]
   const int* rod_mu_own = nullptr;
   int* elem_count = nullptr;
@@ -434,26 +435,47 @@ MANYRODS_HD inline void pair_mu(const T* a, bool a_own, const T* b, bool b_own, 
 }
 
 // Whether elements ka (rod ra) and kb (rod rb) may touch: other rods with
-// rod_rod, the same rod with self beyond the near neighbours |i − j| >
-// 1 + ⌈π r / l⌉ (docs/contact.md "Self contact"), given as `exclusion`.
-MANYRODS_HD inline bool rod_pair_allowed(int ka, int ra, int kb, int rb, bool rod_rod, bool self, int exclusion) {
+// rod_rod, the same rod with self unless they share a node (|i − j| = 1).
+MANYRODS_HD inline bool rod_pair_allowed(int ka, int ra, int kb, int rb, bool rod_rod, bool self) {
   if (ka == kb) return false;
   if (ra != rb) return rod_rod;
   if (!self) return false;
   const int d = ka > kb ? ka - kb : kb - ka;
-  return d > exclusion;
+  return d > 1;
+}
+
+// The contact distance of two elements of one rod near each other along it
+// (docs/contact.md "Self contact"). The tightest loop a tube of radius r
+// can make without overlapping itself has a centreline radius r; on it,
+// points an arc length a < π r apart lie 2r sin(a/2r) apart, less than 2r.
+// Elements that close along the rod therefore touch only when the rod bends
+// tighter than that loop (a kink): their contact distance is the chord
+// 2r sin(a/2r) instead of 2r, with a the current arc length between the
+// closest points s (on lo) and t (on hi). A straight or gently bent rod is
+// never in contact with itself (the chord is shorter than the arc), and
+// from a = π r on the distance is 2r, continuous with the law between far
+// elements.
+template <class T>
+MANYRODS_HD inline T near_contact_distance(int lo, int hi, T s, T t, const T* const x[3], T r) {
+  using std::sin;
+  T arc = (T(1) - s) * norm(load3(x, lo + 1) - load3(x, lo)) + t * norm(load3(x, hi + 1) - load3(x, hi));
+  for (int e = lo + 1; e < hi; ++e) arc += norm(load3(x, e + 1) - load3(x, e));
+  const T half = arc / (T(2) * r);
+  return half < T(1.5707963267948966) ? T(2) * r * sin(half) : T(2) * r;
 }
 
 // Elements lo < hi as a pair, always in this order (so that both sides of
 // a pair compute bit-identical values): the closest points s (on lo) and t
-// (on hi), d = q_lo − q_hi, its length and the gap |d| − r_lo − r_hi.
+// (on hi), d = q_lo − q_hi, its length and the gap |d| − r_lo − r_hi, or,
+// for elements of one rod at most `near` apart (hi − lo ≤ near), |d| minus
+// their near_contact_distance. near = 0: every pair at r_lo + r_hi.
 template <class T>
 struct PairGeometry {
   T s, t, len, gap;
   vec3<T> d, e_lo;
 };
 template <class T>
-MANYRODS_HD inline PairGeometry<T> pair_geometry(int lo, int hi, const T* const x[3], const T* radius) {
+MANYRODS_HD inline PairGeometry<T> pair_geometry(int lo, int hi, const T* const x[3], const T* radius, int near = 0) {
   PairGeometry<T> g;
   const vec3<T> a0 = load3(x, lo), b0 = load3(x, hi);
   g.e_lo = load3(x, lo + 1) - a0;
@@ -461,8 +483,15 @@ MANYRODS_HD inline PairGeometry<T> pair_geometry(int lo, int hi, const T* const 
   closest_segments(a0, g.e_lo, b0, be, g.s, g.t);
   g.d = (a0 + g.s * g.e_lo) - (b0 + g.t * be);
   g.len = norm(g.d);
-  g.gap = g.len - radius[lo] - radius[hi];
+  g.gap = hi - lo <= near ? g.len - near_contact_distance(lo, hi, g.s, g.t, x, T(0.5) * (radius[lo] + radius[hi]))
+                          : g.len - radius[lo] - radius[hi];
   return g;
+}
+
+// `near` of pair_geometry for elements ka, kb: the rod's near span for two
+// elements of one rod, 0 for two rods.
+MANYRODS_HD inline int pair_near(int ka, int kb, const int* elem_rod, const int* rod_near) {
+  return elem_rod[ka] == elem_rod[kb] ? rod_near[elem_rod[ka]] : 0;
 }
 
 namespace contact_detail {
@@ -546,9 +575,14 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
       for (int j = 0; j < nc; ++j) {
         const int kb = cv.neighbours[std::size_t(k) * std::size_t(cv.capacity) + std::size_t(j)];
         const int lo = k < kb ? k : kb, hi = k < kb ? kb : k;
-        const PairGeometry<T> g = pair_geometry(lo, hi, st.node_x, cv.elem_radius);
+        const int near = pair_near(lo, hi, cv.elem_rod, cv.rod_near);
+        const PairGeometry<T> g = pair_geometry(lo, hi, st.node_x, cv.elem_radius, near);
         const T ra = cv.elem_radius[lo], rb = cv.elem_radius[hi];
-        const T delta = reach * (max_speed(st, lo) + max_speed(st, hi)) + T(0.5) * (ra + rb);
+        // near elements of one rod: no margin, so that the many always close
+        // to their contact distance (a ~straight rod) are counted only when
+        // they can act within the step (the counts split the node masses)
+        const T margin = hi - lo <= near ? T(0) : T(0.5) * (ra + rb);
+        const T delta = reach * (max_speed(st, lo) + max_speed(st, hi)) + margin;
         if (!(g.gap < delta)) continue;
         acc.count_in(k == lo ? g.s : g.t);
         if constexpr (kImpulse) {

@@ -76,7 +76,7 @@ struct Collider {
 struct ContactSpec {
   std::vector<Collider> colliders;
   bool rod_rod = false;     // contact between any two rods
-  bool self = false;        // contact of a rod with itself (beyond its near neighbours)
+  bool self = false;        // contact of a rod with itself (near elements where it kinks, docs/contact.md "Self contact")
   Friction friction;        // rod–rod and self, for rods without their own
   // per rod (empty, or one per rod): its own friction (a rod group's key),
   // combined with its partner's as docs/contact.md "Friction of a pair" says;
@@ -126,7 +126,7 @@ struct ContactData {
   Array<int> elem_rod;
   std::vector<T> rod_mu;  // [4 × rods] the rods' friction against rods; rod_mu_own[r]: set by the rod
   std::vector<int> rod_mu_own;
-  std::vector<int> rod_exclusion;  // [rods] self contact skips elements |i − j| ≤ this apart
+  std::vector<int> rod_near;  // [rods] elements |i − j| ≤ this apart touch at the tight-loop chord (kernels/contact.h near_contact_distance)
   // per slot (scratch of the contact stage, kernels/contact.h)
   Array<int> elem_count;              // contacts in range of element k (mass splitting)
   Array<int> elem_count_lo, elem_count_hi;  // of them acting on node k (s < 1), on node k+1 (s > 0)
