@@ -1,10 +1,15 @@
 // host/runner.cpp — a scene run into an HDF5 file (include/manyrods/runner.h).
 #include "manyrods/runner.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <type_traits>
 
 #include "manyrods/scene.h"
@@ -61,6 +66,36 @@ std::string eta(double s) {
   return buf;
 }
 
+// The output path checked before the first step (docs/scenes.md "Output
+// files"): the file is written as <path>.tmp in its directory and renamed at
+// the end, so the directory must exist and be writable, the path must not be
+// a directory, and the disk must have room for the estimated output.
+void check_output(const std::string& path, std::uint64_t bytes) {
+  namespace fs = std::filesystem;
+  auto fail = [&](const std::string& why) { throw SceneError("output " + path + ": " + why); };
+  if (path.empty()) fail("no output file given");
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) fail("is a directory (give a file name, e.g. " + (fs::path(path) / "out.h5").string() + ")");
+  if (fs::exists(path, ec) && !fs::is_regular_file(path, ec)) fail("exists and is not a regular file");
+  const fs::path dir = fs::path(path).has_parent_path() ? fs::path(path).parent_path() : fs::path(".");
+  if (!fs::is_directory(dir, ec)) fail("the directory " + dir.string() + " does not exist");
+  // a file can be made there (permissions, a read-only or pseudo file
+  // system); the probe is the temporary file the run writes, removed again
+  const std::string tmp = path + ".tmp";
+  const bool existed = fs::exists(tmp, ec);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT, 0644);
+  if (fd < 0) fail("cannot write in the directory " + dir.string() + " (" + std::strerror(errno) + ")");
+  ::close(fd);
+  if (!existed) fs::remove(tmp, ec);
+  const fs::space_info sp = fs::space(dir, ec);
+  if (!ec && sp.available < bytes) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "needs about %.3g GB, %.3g GB free in %s (fewer frames: a larger output_interval)",
+                  double(bytes) / 1e9, double(sp.available) / 1e9, dir.c_str());
+    fail(buf);
+  }
+}
+
 // One run of a scene: the batch, its output file and its records, and the
 // loop that advances from sample point to sample point.
 template <class T>
@@ -77,6 +112,7 @@ class SceneRun {
     if (res_.first_step >= total_)
       throw SceneError(s.source + ": the run is already at step " + std::to_string(res_.first_step) + " of " +
                        std::to_string(total_) + " (give a longer --duration to continue it)");
+    check_output(opt_.output, output_bytes());
   }
 
   RunResult run() {
@@ -140,6 +176,16 @@ class SceneRun {
     dissipated_ = c.dissipated;
     last_rate_ = c.last_rate;
     frames_before_ = c.frames_written;
+  }
+
+  // About what the output will hold: the frames from here to the end
+  // (positions, directors, energy rows) and the checkpoint (the state).
+  std::uint64_t output_bytes() const {
+    const std::uint64_t frames = std::uint64_t((total_ - b_.state.steps) / per_frame_ + 2);
+    const std::uint64_t nodes = std::uint64_t(b_.element_count() + b_.rod_count());
+    const std::uint64_t per_frame =
+        sizeof(T) * (3 * nodes + (s_.sim.output_directors ? 9 * std::uint64_t(b_.element_count()) : 0)) + 8 * 8;
+    return frames * per_frame + b_.bytes();
   }
 
   h5::Layout layout() const {

@@ -200,13 +200,26 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
 
 template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b) {
-  if (!s.sim.dt_auto) return s.sim.dt;
   const StepChoice c = step_choice(s);
   const StableDt sd = with_terms(c, [&]<Terms kT>() { return stable_dt<kT>(b); }, false);  // contact does not limit it
-  if (!std::isfinite(sd.elastic) || !(sd.elastic > 0))
+  const bool finite = std::isfinite(sd.elastic) && sd.elastic > 0;
+  if (s.sim.dt_auto && !finite)
     throw SceneError(s.source +
                      ": dt = \"auto\": stable_dt gives no finite step (no stiffness?); give dt in seconds");
-  return sd.elastic * s.sim.dt_safety;
+  const double dt = s.sim.dt_auto ? sd.elastic * s.sim.dt_safety : s.sim.dt;
+  if (finite && dt > sd.elastic && !s.sim.force_dt) {
+    std::ostringstream os;
+    os.precision(4);
+    os << s.source << ": simulation." << (s.sim.dt_auto ? "dt_safety = " : "dt = ")
+       << (s.sim.dt_auto ? s.sim.dt_safety : s.sim.dt) << (s.sim.dt_auto ? "" : " s")
+       << ": the step " << dt << " s is " << dt / sd.elastic << " x this scene's stable limit " << sd.elastic
+       << " s (stable_dt of what it integrates explicitly" << (b.any_stiff() ? "; stiff rods: bending" : "")
+       << "). Use dt = \"auto\" (0.9 x the limit = " << 0.9 * sd.elastic << " s"
+       << (b.any_stiff() ? "; stiff rods that swing hard: dt_safety = 0.5" : "")
+       << "), a dt at or below the limit, or --force-dt to run it anyway (docs/scenes.md \"The step-size guard\")";
+    throw SceneError(os.str());
+  }
+  return dt;
 }
 
 template <class T>

@@ -438,7 +438,7 @@ TEST(Cli, BadInputExitsNonZeroWithAClearMessage) {
   rods = rods.substr(rods.find("[[rods]]"));
   rods = rods.substr(0, rods.find("damping"));
   const std::string blow = write_scene("blow.toml", "[simulation]\ndt = 0.01\nduration = 1.0\n" + rods);
-  r = cli("run " + blow + " -o " + out);
+  r = cli("run " + blow + " -o " + out + " --force-dt");  // (refused without it, below)
   EXPECT_EQ(r.status, 1) << r.err;
   expect_contains(r.err, "non-finite state at step");
   expect_contains(r.err, "rod 0 ('beam[0]'");
@@ -482,6 +482,60 @@ TEST(Cli, BadInputExitsNonZeroWithAClearMessage) {
   EXPECT_EQ(r.status, 2);
   expect_contains(r.err, "rods.0.material.youngs_modulus (set by --vary): must be > 0 (got -1)");
   expect_contains(r.err, "variation 0");
+}
+
+TEST(Cli, StepsAboveTheStableLimitAndBadOutputsAreRefusedBeforeAnyWork) {
+  // dt = 1/24 s (a frame, as a technical director reads "frame-rate steps")
+  // on the seed beam: refused at once, with the limit and the safe value;
+  // --force-dt runs it (and it blows up: exit 1)
+  std::string rods = cantilever(8, 1.0, 0.1);
+  rods = rods.substr(rods.find("[[rods]]"));
+  rods = rods.substr(0, rods.find("damping"));
+  const std::string frame = write_scene("frame.toml", "[simulation]\ndt = 0.041666667\nduration = 1.0\n" + rods);
+  const std::string out = path("frame.h5");
+  fs::remove(out);
+  Result r = cli("run " + frame + " -o " + out);
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "simulation.dt = 0.04167 s: the step 0.04167 s is");
+  expect_contains(r.err, "x this scene's stable limit");
+  expect_contains(r.err, "Use dt = \"auto\" (0.9 x the limit = ");
+  expect_contains(r.err, "--force-dt");
+  EXPECT_FALSE(fs::exists(out) || fs::exists(out + ".tmp"));
+  EXPECT_EQ(cli("run " + frame + " -o " + out + " --force-dt").status, 1);
+  // dt = "auto" with dt_safety above 1 is the same step above the limit
+  const std::string safety = write_scene("safety.toml", cantilever(8, 0.01, 0.01, "dt_safety = 1.2"));
+  r = cli("run " + safety + " -o " + out);
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "simulation.dt_safety = 1.2: the step");
+  // ... and at the limit it runs
+  EXPECT_EQ(cli("run " + write_scene("at.toml", cantilever(8, 0.01, 0.01, "dt_safety = 1.0")) + " -o " + out).status, 0);
+
+  // outputs that cannot be written fail before the first step, leaving nothing
+  const std::string scene = write_scene("short.toml", cantilever(8, 0.01, 0.01));
+  fs::create_directories(path("a_directory"));
+  r = cli("run " + scene + " -o " + path("a_directory"));
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "output " + path("a_directory") + ": is a directory");
+  EXPECT_FALSE(fs::exists(path("a_directory") + ".tmp"));
+  r = cli("run " + scene + " -o " + path("missing/out.h5"));
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "the directory " + path("missing") + " does not exist");
+  r = cli("run " + scene + " -o /proc/out.h5");
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "cannot write in the directory /proc");
+
+  // a restart into the file it continues is refused, the file unchanged
+  ASSERT_EQ(cli("run " + scene + " -o " + out).status, 0);
+  const std::string before = slurp(out);
+  r = cli("run --restart " + out + " -o " + out + " --duration 0.02");
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "would replace the file it continues");
+  EXPECT_TRUE(slurp(out) == before);
+
+  // plot into a directory that cannot be made: one line, exit 2
+  r = cli("plot " + out + " --out-dir /proc/plots");
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "manyrods plot: --out-dir /proc/plots: cannot create or write this directory");
 }
 
 TEST(Cli, SweepRestartIsIdenticalToAnUninterruptedSweep) {

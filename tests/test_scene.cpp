@@ -244,6 +244,28 @@ TEST(Scene, GravityPerGroup) {
   EXPECT_NEAR(ea.total(), eb.total(), 1e-9 * std::abs(ea.potential));
 }
 
+TEST(Scene, StepAboveTheStableLimitIsRefusedUnlessForced) {
+  // The seed beam at 6 elements: stable_dt ≈ 3e-4 s. dt = 1e-4 is taken as
+  // given; 1e-2 is refused (SceneError with the limit), and taken when forced.
+  Scene ok = parse_scene(scene_text(), "ok.toml");
+  const RodBatch<double> a = build_scene_batch<double>(ok);
+  const double limit = stable_dt(a).elastic;
+  ASSERT_GT(limit, 1e-4);
+  EXPECT_EQ(scene_dt(ok, a), 1e-4);
+  std::string text = scene_text();
+  text.replace(text.find("dt = 1e-4"), 9, "dt = 1e-2");
+  Scene big = parse_scene(text, "big.toml");
+  try {
+    (void)scene_dt(big, a);
+    FAIL() << "dt = 1e-2 s (" << 1e-2 / limit << " x the limit) was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("big.toml: simulation.dt = 0.01 s"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("stable limit"), std::string::npos) << e.what();
+  }
+  big.sim.force_dt = true;
+  EXPECT_EQ(scene_dt(big, a), 1e-2);
+}
+
 TEST(Scene, DrivenRoots) {
   const Scene s = parse_scene(
       scene_text("count = 3\nplacement = { kind = \"grid\", spacing = [0.05, 0.05] }\n"

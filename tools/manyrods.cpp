@@ -184,7 +184,13 @@ int plot(const std::string& in, std::string dir) {
   const h5::Reader rd(in);
   const h5::Output& o = rd.output();
   if (dir.empty()) dir = fs::path(in).replace_extension("").string() + "_plots";
-  fs::create_directories(dir);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir) || access(dir.c_str(), W_OK) != 0) {
+    std::fprintf(stderr, "manyrods plot: --out-dir %s: cannot create or write this directory (%s)\n", dir.c_str(),
+                 ec ? ec.message().c_str() : "not a writable directory");
+    return 2;
+  }
   const std::vector<int> shown = shown_rods(o);
   const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
   write_plot_data(rd, shown, tips, energy);
@@ -224,6 +230,7 @@ struct Options {
   double until = -1, duration = -1;
   std::uint64_t seed = 0;
   bool progress = isatty(2) != 0, no_progress = false, force_progress = false, profile = false;
+  bool force_dt = false;
   std::vector<std::string> vary;
 };
 
@@ -252,6 +259,11 @@ void add_progress_flags(CLI::App* c, Options& o) {
   c->add_flag("--profile", o.profile, "print the time of each stage of the step (thread-seconds) at the end");
 }
 
+void add_force_dt_flag(CLI::App* c, Options& o) {
+  c->add_flag("--force-dt", o.force_dt,
+              "run a step above the scene's stable limit (refused otherwise; docs/scenes.md \"The step-size guard\")");
+}
+
 CLI::App* add_run_command(CLI::App& app, Options& o) {
   const CLI::Validator positive = number_check(true), non_negative = number_check(false);
   CLI::App* run = app.add_subcommand("run", "run a scene into an HDF5 file");
@@ -263,6 +275,7 @@ CLI::App* add_run_command(CLI::App& app, Options& o) {
       ->check(non_negative);
   run->add_option("--duration", o.duration, "override [simulation] duration (s)")->check(positive);
   run->add_option("--csv", o.csv, "restarting a sweep: summary CSV (default: the output with .csv)");
+  add_force_dt_flag(run, o);
   add_progress_flags(run, o);
   return run;
 }
@@ -283,6 +296,7 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
   sweep->add_option("--duration", o.duration, "override [simulation] duration (s)")->check(positive);
   sweep->add_option("--until", o.until, "stop at this simulated time (s); the file keeps a checkpoint to continue with run --restart")
       ->check(non_negative);
+  add_force_dt_flag(sweep, o);
   add_progress_flags(sweep, o);
   return sweep;
 }
@@ -321,6 +335,18 @@ int command_run(const Options& o) {
     std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep (--restart sweep.h5)\n");
     return 2;
   }
+  std::error_code ec;
+  if (!o.restart.empty() && fs::exists(o.output, ec) && fs::equivalent(o.restart, o.output, ec)) {
+    std::fprintf(stderr,
+                 "manyrods run: --restart %s -o %s: the continuation would replace the file it continues (and its "
+                 "frames); write it to another file\n",
+                 o.restart.c_str(), o.output.c_str());
+    return 2;
+  }
+  if (!o.restart.empty() && o.force_dt) {
+    std::fprintf(stderr, "manyrods run: --force-dt: a restart keeps the step of the run it continues\n");
+    return 2;
+  }
   const RunOptions opt = run_options(o);
   RunResult r;
   if (!o.restart.empty()) {
@@ -336,7 +362,8 @@ int command_run(const Options& o) {
     const Scene s = parse_scene(c.scene_text, o.restart + ":/scene");
     r = run_scene(s, opt, &c);
   } else {
-    const Scene s = load_scene(o.scene_path);
+    Scene s = load_scene(o.scene_path);
+    s.sim.force_dt = o.force_dt;
     r = run_scene(s, opt);
   }
   summary_line(r, o.output);
@@ -346,7 +373,8 @@ int command_run(const Options& o) {
 int command_sweep(const Options& o) {
   std::vector<Vary> vs;
   for (const std::string& v : o.vary) vs.push_back(parse_vary(v));
-  const Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, o.samples, o.seed);
+  Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, o.samples, o.seed);
+  sw.scene.sim.force_dt = o.force_dt;
   return run_sweep(sw, run_options(o), o.csv, nullptr);
 }
 

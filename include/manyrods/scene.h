@@ -37,6 +37,10 @@ struct Simulation {
   bool dt_auto = true;  // dt = "auto": stable_dt(batch).elastic × dt_safety
   double dt = 0;        // s, when !dt_auto
   double dt_safety = 0.9;
+  // A step above the stable limit (dt, or dt_safety > 1) is refused by
+  // scene_dt unless forced (`manyrods run --force-dt`): it either blows up
+  // or, damped, runs into nonsense.
+  bool force_dt = false;
   double duration = 0;         // s of simulated time
   double output_interval = 0;  // s of simulated time between frames (0: every step... see docs)
   Integrator integrator = Integrator::position_verlet;
@@ -138,6 +142,9 @@ template <class T>
 RodBatch<T> build_scene_batch(const Scene& s, bool initial_state = true);
 
 // [simulation] dt, or stable_dt(batch).elastic × dt_safety for "auto".
+// SceneError when that step exceeds stable_dt(batch).elastic (the limit of
+// what the step integrates explicitly; an estimate below the true limit,
+// docs/scenes.md "The step-size guard") unless sim.force_dt.
 template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b);
 
