@@ -13,7 +13,7 @@
 namespace manyrods::h5 {
 namespace {
 
-constexpr int kFormatVersion = 1;
+constexpr int kFormatVersion = 2;  // 2: fixed-length strings, checksummed metadata and data
 
 void quiet() {
   static const bool done = [] {
@@ -63,20 +63,26 @@ void check(herr_t e, const std::string& path, const std::string& what) {
   if (e < 0) fail(path, what);
 }
 
-Id string_type() {
+// Strings are fixed-length attributes (UTF-8, null-padded, at least one
+// byte): a variable-length string lives in the file's global heap, whose
+// damaged entries crash libhdf5 while reading (H5HG_read), where a
+// fixed-length one is plain bytes of a known size.
+Id string_type(std::size_t n) {
   Id t(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(t.get(), H5T_VARIABLE);
+  H5Tset_size(t.get(), std::max<std::size_t>(1, n));
+  H5Tset_strpad(t.get(), H5T_STR_NULLPAD);
   H5Tset_cset(t.get(), H5T_CSET_UTF8);
   return t;
 }
 
 void attr_string(hid_t obj, const char* name, const std::string& value, const std::string& path) {
-  const Id t = string_type();
+  const Id t = string_type(value.size());
   const Id sp(H5Screate(H5S_SCALAR), H5Sclose);
   const Id a = checked(H5Acreate2(obj, name, t.get(), sp.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, path,
                        std::string("cannot create attribute ") + name);
-  const char* p = value.c_str();
-  check(H5Awrite(a.get(), t.get(), &p), path, std::string("cannot write attribute ") + name);
+  std::string buf = value;
+  buf.resize(std::max<std::size_t>(1, value.size()), '\0');
+  check(H5Awrite(a.get(), t.get(), buf.data()), path, std::string("cannot write attribute ") + name);
 }
 
 template <class V>
@@ -93,20 +99,18 @@ std::string read_attr_string(hid_t obj, const char* name, const std::string& pat
   if (!has_attr(obj, name)) fail(path, "missing attribute " + where + name);
   const Id a =
       checked(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, path, "cannot open attribute " + where + name);
-  const Id ft(H5Aget_type(a.get()), H5Tclose);
+  const Id ft = checked(H5Aget_type(a.get()), H5Tclose, path, "cannot read the type of attribute " + where + name);
   if (H5Tget_class(ft.get()) != H5T_STRING) fail(path, "attribute " + where + name + " is not a string");
-  if (H5Tis_variable_str(ft.get()) > 0) {
-    const Id t = string_type();
-    char* p = nullptr;
-    check(H5Aread(a.get(), t.get(), &p), path, "cannot read attribute " + where + name);
-    std::string s = p ? p : "";
-    H5free_memory(p);
-    return s;
-  }
+  // not read: a variable-length string is read from the global heap (see string_type)
+  if (H5Tis_variable_str(ft.get()) != 0)
+    fail(path, "attribute " + where + name +
+                   " is a variable-length string (not written by this manyrods, or damaged); not read");
+  const Id sp = checked(H5Aget_space(a.get()), H5Sclose, path, "cannot read the shape of attribute " + where + name);
+  if (H5Sget_simple_extent_npoints(sp.get()) != 1) fail(path, "attribute " + where + name + " is not a single string");
   const std::size_t n = H5Tget_size(ft.get());
+  if (n == 0 || n > (std::size_t(1) << 26)) fail(path, "attribute " + where + name + " has an impossible size (damaged?)");
   std::string s(n, '\0');
-  const Id t(H5Tcopy(H5T_C_S1), H5Tclose);
-  H5Tset_size(t.get(), n);
+  const Id t = string_type(n);
   check(H5Aread(a.get(), t.get(), s.data()), path, "cannot read attribute " + where + name);
   s.resize(std::strlen(s.c_str()));
   return s;
@@ -138,6 +142,8 @@ Id create_dataset(hid_t loc, const char* name, hid_t type, const std::vector<hsi
     H5Pset_shuffle(pl.get());
     H5Pset_deflate(pl.get(), 4);
   }
+  // a checksum per chunk: damaged data is a read error, not a silent state
+  check(H5Pset_fletcher32(pl.get()), path, std::string("cannot add a checksum to ") + name);
   return checked(H5Dcreate2(loc, name, type, sp.get(), H5P_DEFAULT, pl.get(), H5P_DEFAULT), H5Dclose, path,
                  std::string("cannot create dataset ") + name);
 }
@@ -208,12 +214,15 @@ Id open_manyrods(const std::string& path) {
   if (H5Fis_hdf5(path.c_str()) <= 0) fail(path, "not an HDF5 file (no HDF5 signature)");
   Id f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!f.ok()) fail(path, "cannot open this HDF5 file (truncated or damaged?)");
-  if (!has_attr(f.get(), "format") || read_attr_string(f.get(), "format", path, "/") != "manyrods")
-    fail(path, "an HDF5 file, but not a manyrods output (no root attribute format = \"manyrods\")");
+  if (!has_attr(f.get(), "format") || !has_attr(f.get(), "format_version"))
+    fail(path, "an HDF5 file, but not a manyrods output (no root attributes format, format_version)");
+  // the version first: version 1 files hold variable-length strings, which are not read (string_type)
   const auto v = read_attr_scalar<std::int64_t>(f.get(), "format_version", H5T_NATIVE_INT64, path, "/");
   if (v != kFormatVersion)
-    fail(path,
-         "format_version " + std::to_string(v) + ", this manyrods reads " + std::to_string(kFormatVersion));
+    fail(path, "format_version " + std::to_string(v) + ", this manyrods reads " + std::to_string(kFormatVersion) +
+                   (v == 1 ? " (version 1 files, from before 2026-12-02, are not read: rerun the scene)" : ""));
+  if (read_attr_string(f.get(), "format", path, "/") != "manyrods")
+    fail(path, "an HDF5 file, but not a manyrods output (root attribute format is not \"manyrods\")");
   return f;
 }
 
@@ -258,7 +267,11 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
     fail(path, "writer: bad layout (no rods)");
   w.nodes = layout.node_offsets.back();
   w.elements = layout.element_offsets.back();
-  w.file = checked(H5Fcreate(w.tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, w.tmp,
+  // the 1.10 file format: checksums on the superblock, object headers and
+  // B-trees, so that damaged metadata is an error when read
+  const Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_LATEST), w.tmp, "cannot set the file format");
+  w.file = checked(H5Fcreate(w.tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose, w.tmp,
                    "cannot create the output file (directory missing or not writable?)");
   const hid_t f = w.file.get();
   attr_string(f, "format", "manyrods", w.tmp);

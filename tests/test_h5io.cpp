@@ -228,6 +228,53 @@ TEST(H5io, BadFilesGiveClearErrors) {
   expect_h5_error([&] { h5::Reader r(foreign); }, {foreign, "not a manyrods output"});
   expect_h5_error([&] { (void)h5::read_checkpoint(foreign); }, {foreign, "not a manyrods output"});
 
+  // a variable-length string attribute is never read (libhdf5 reads it from
+  // the global heap, where damage crashes it): a version-1 file is refused by
+  // its version, a forged one by the string's type
+  auto vlen_file = [](const std::string& path, std::int64_t version) {
+    const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t sp = H5Screate(H5S_SCALAR);
+    const hid_t t = H5Tcopy(H5T_C_S1);
+    H5Tset_size(t, H5T_VARIABLE);
+    const char* v = "manyrods";
+    const hid_t a = H5Acreate2(f, "format", t, sp, H5P_DEFAULT, H5P_DEFAULT);
+    H5Awrite(a, t, &v);
+    const hid_t b = H5Acreate2(f, "format_version", H5T_NATIVE_INT64, sp, H5P_DEFAULT, H5P_DEFAULT);
+    H5Awrite(b, H5T_NATIVE_INT64, &version);
+    H5Aclose(a);
+    H5Aclose(b);
+    H5Tclose(t);
+    H5Sclose(sp);
+    H5Fclose(f);
+  };
+  const std::string v1 = (d / "v1.h5").string(), forged = (d / "forged.h5").string();
+  vlen_file(v1, 1);
+  vlen_file(forged, 2);
+  expect_h5_error([&] { (void)h5::read_checkpoint(v1); }, {v1, "format_version 1, this manyrods reads 2"});
+  expect_h5_error([&] { h5::Reader r(forged); }, {forged, "attribute /format is a variable-length string"});
+
+  // a damaged byte in the checkpoint's data: its chunk's checksum fails
+  const std::string flipped = (d / "flipped.h5").string();
+  {
+    write_file<double>(flipped);
+    const hid_t f = H5Fopen(flipped.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    const hid_t ds = H5Dopen2(f, "checkpoint/node_x", H5P_DEFAULT);
+    haddr_t offset = HADDR_UNDEF;
+    hsize_t size = 0;
+    const hsize_t start[2] = {0, 0};
+    H5Dget_chunk_info_by_coord(ds, start, nullptr, &offset, &size);
+    H5Dclose(ds);
+    H5Fclose(f);
+    ASSERT_NE(offset, HADDR_UNDEF);
+    std::fstream io(flipped, std::ios::in | std::ios::out | std::ios::binary);
+    io.seekg(std::streamoff(offset + size / 2));
+    char c = 0;
+    io.get(c);
+    io.seekp(std::streamoff(offset + size / 2));
+    io.put(char(c ^ 0x5a));
+  }
+  expect_h5_error([&] { (void)h5::read_checkpoint(flipped); }, {flipped, "checkpoint"});
+
   // a manyrods output without a checkpoint (e.g. written by an older tool)
   const std::string nock = (d / "nocheckpoint.h5").string();
   {
@@ -255,8 +302,10 @@ TEST(H5io, H5pyReadsTheDocumentedLayout) {
     py.precision(9);
     py << "import sys, h5py, numpy as np\n"
           "f = h5py.File(sys.argv[1], 'r')\n"
-          "assert f.attrs['format'] == 'manyrods', f.attrs['format']\n"
-          "assert f.attrs['precision'] == 'float'\n"
+          "s = lambda a: a.decode('utf-8')  # fixed-length string attributes: bytes in h5py\n"
+          "assert s(f.attrs['format']) == 'manyrods', f.attrs['format']\n"
+          "assert f.attrs['format_version'] == 2\n"
+          "assert s(f.attrs['precision']) == 'float'\n"
           "assert f['time'].shape == (3,)\n"
           "assert f['node_offsets'][:].tolist() == [0, 4, 7]\n"
           "p = f['node_position']\n"
@@ -264,7 +313,8 @@ TEST(H5io, H5pyReadsTheDocumentedLayout) {
           "assert p.compression == 'gzip' and p.chunks is not None\n"
           "assert f['element_directors'].shape == (3, 5, 3, 3)\n"
           "assert f['energy/kinetic'][:].tolist() == [1.0, 2.0, 3.0]\n"
-          "assert 'ünïcode' in f['scene'].attrs['text']\n"
+          "assert 'ünïcode' in s(f['scene'].attrs['text'])\n"
+          "assert p.fletcher32 and f['checkpoint/node_x'].fletcher32  # checksummed chunks\n"
           "assert f['checkpoint/node_x'].shape == (3, 64)\n"
           "assert f['checkpoint'].attrs['steps'] == 123\n"
           "rod1 = p[2, f['node_offsets'][1]:f['node_offsets'][2]]\n"
