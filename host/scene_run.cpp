@@ -198,6 +198,16 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
   return b;
 }
 
+// The largest step ≤ dt that divides the output interval into whole steps,
+// so that frame k lies at step k·m, time k·interval (up to the round-off of
+// summing the steps); dt itself when it divides it already (to 1e-9).
+double frame_aligned_dt(double dt, double interval) {
+  if (!(interval > 0) || !(dt > 0)) return dt;
+  const double ratio = interval / dt;
+  if (std::abs(ratio - std::round(ratio)) <= 1e-9 * ratio && std::round(ratio) >= 1) return dt;
+  return interval / std::ceil(ratio);
+}
+
 template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b) {
   const StepChoice c = step_choice(s);
@@ -219,7 +229,7 @@ double scene_dt(const Scene& s, const RodBatch<T>& b) {
        << "), a dt at or below the limit, or --force-dt to run it anyway (docs/scenes.md \"The step-size guard\")";
     throw SceneError(os.str());
   }
-  return dt;
+  return frame_aligned_dt(dt, s.sim.output_interval);
 }
 
 template <class T>

@@ -543,6 +543,33 @@ TEST(Cli, StepsAboveTheStableLimitAndBadOutputsAreRefusedBeforeAnyWork) {
   expect_contains(r.err, "manyrods plot: --out-dir /proc/plots: cannot create or write this directory");
 }
 
+TEST(Cli, FramesFallOnExactMultiplesOfTheOutputInterval) {
+  // 24 frames per second: dt = "auto" is shortened to interval / m, so
+  // frame k is step k·m at k/24 s (to the round-off of summing the steps)
+  // and the USD export says 24 time codes per second.
+  std::string fps = cantilever(8, 0.25, 0.5);
+  fps.replace(fps.find("output_interval = 0.5"), 21, "output_interval = 0.041666666666666667");
+  const std::string scene = write_scene("fps.toml", fps);
+  ASSERT_EQ(cli("run " + scene + " -o " + path("fps.h5")).status, 0);
+  const h5::Reader rd(path("fps.h5"));
+  const std::vector<double>& t = rd.output().time;
+  ASSERT_EQ(t.size(), 7u);  // 0, 1/24, …, 6/24 = 0.25 s
+  for (std::size_t k = 0; k < t.size(); ++k) EXPECT_NEAR(t[k], k / 24.0, 1e-12) << "frame " << k;
+  ASSERT_EQ(cli("export " + path("fps.h5") + " --usd " + path("fps.usda")).status, 0);
+  expect_contains(slurp(path("fps.usda")), "timeCodesPerSecond = 24\n");
+  // an explicit dt that does not divide the interval is shortened, and says so
+  std::string text = cantilever(8, 0.01, 0.00025);
+  const std::string autodt = "dt = \"auto\"";
+  text.replace(text.find(autodt), autodt.size(), "dt = 1e-4");
+  const std::string exp = write_scene("exp.toml", text);
+  const Result r = cli("run " + exp + " -o " + path("exp.h5"));
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_contains(r.err, "dt = 0.0001 s was shortened to 8.33333e-05 s, so that output_interval = 0.00025 s");
+  const h5::Reader re(path("exp.h5"));
+  const std::vector<double>& te = re.output().time;
+  for (std::size_t k = 0; k < te.size(); ++k) EXPECT_NEAR(te[k], 0.00025 * double(k), 1e-15) << "frame " << k;
+}
+
 TEST(Cli, DamagedFilesNeverCrashHangOrMisleadTheTool) {
   // A byte-damage corpus, made here from a fixed seed (the same files every
   // run): copies of a valid output with 1–16 random bytes replaced, one in

@@ -365,6 +365,11 @@ int command_run(const Options& o) {
     Scene s = load_scene(o.scene_path);
     s.sim.force_dt = o.force_dt;
     r = run_scene(s, opt);
+    if (!s.sim.dt_auto && r.dt != s.sim.dt)
+      std::fprintf(stderr,
+                   "manyrods: note: dt = %.6g s was shortened to %.6g s, so that output_interval = %.6g s is a whole "
+                   "number of steps (frames at its exact multiples)\n",
+                   s.sim.dt, r.dt, s.sim.output_interval);
   }
   summary_line(r, o.output);
   return g_interrupt ? 130 : 0;

@@ -142,11 +142,14 @@ template <class T>
 RodBatch<T> build_scene_batch(const Scene& s, bool initial_state = true);
 
 // [simulation] dt, or stable_dt(batch).elastic × dt_safety for "auto".
+// Then shortened to the largest step that divides output_interval into
+// whole steps (frame_aligned_dt), so that frames fall on multiples of it.
 // SceneError when that step exceeds stable_dt(batch).elastic (the limit of
 // what the step integrates explicitly; an estimate below the true limit,
 // docs/scenes.md "The step-size guard") unless sim.force_dt.
 template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b);
+double frame_aligned_dt(double dt, double interval);
 
 // advance<Terms, Viscous::implicit, integrator>(b, dt, steps, ex) with the
 // scene's terms (NonFiniteError as advance).
