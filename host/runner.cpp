@@ -10,8 +10,10 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <type_traits>
 
+#include "host/validity.h"
 #include "manyrods/scene.h"
 
 namespace manyrods::scene {
@@ -125,7 +127,9 @@ class SceneRun {
     if (b_.state.steps % per_frame_ == 0) write_frame(w, scene_energies(b_, choice_));
     if (restart_ && !opt_.probes.empty()) restore_probes(*restart_);
     else sample_probes(true);
+    monitor_.emplace(s_, b_, scene_energies(b_, choice_), dissipated_);
     loop(w);
+    res_.validity = monitor_->summary(b_.rod_count());
     w.write_checkpoint(checkpoint(w));
     if (opt_.before_finish) opt_.before_finish(w, probes_);
     w.finish();
@@ -293,6 +297,7 @@ class SceneRun {
       dissipated_ += 0.5 * (last_rate_ + e.dissipation) * (double(next - prev) * res_.dt);
       last_rate_ = e.dissipation;
       if (!opt_.probes.empty()) sample_probes(false);
+      check_validity(e);
       if (step % per_frame_ == 0 || step == total_) write_frame(w, e);
       const auto now = clock::now();
       if (opt_.progress && (std::chrono::duration<double>(now - last_print).count() > 0.5 || step == total_)) {
@@ -312,6 +317,18 @@ class SceneRun {
     res_.element_steps_per_s = double(step - res_.first_step) * double(res_.elements) / std::max(res_.wall_s, 1e-9);
     res_.stages = profile.total();
     res_.state_hash = state_hash(b_);
+  }
+
+  // The validity monitor at a sample point: a new kind of violation is
+  // reported through RunOptions::on_warning, or stops the run (ValidityError)
+  // with [simulation] validity.on_violation = "error".
+  void check_validity(const Energies& e) {
+    std::vector<std::string> news;
+    monitor_->check(b_, e, dissipated_, b_.state.time, news);
+    for (const std::string& m : news) {
+      if (s_.sim.validity.error) throw ValidityError(s_.source + ": " + m);
+      if (opt_.on_warning) opt_.on_warning(m);
+    }
   }
 
   void progress(std::int64_t step, double wall) const {
@@ -362,6 +379,7 @@ class SceneRun {
   RunResult res_;
   double duration_ = 0;
   std::int64_t total_ = 0, per_frame_ = 1, frames_before_ = 0;
+  std::optional<ValidityMonitor<T>> monitor_;
   double dissipated_ = 0, last_rate_ = 0;
   std::vector<ProbeRecord> probes_;
   std::vector<double> probe_rate_;

@@ -187,7 +187,7 @@ struct Table {
 
 Simulation parse_simulation(const Table& root) {
   const Table t = root.sub("simulation", {"dt", "dt_safety", "duration", "integrator", "precision",
-                                          "output_interval", "gravity", "output_directors"});
+                                          "output_interval", "gravity", "output_directors", "validity"});
   Simulation s;
   if (!t.has("dt")) t.missing("dt", "a time step in seconds, or \"auto\"");
   const toml::node& dt = *t.get("dt");
@@ -216,6 +216,13 @@ Simulation parse_simulation(const Table& root) {
         t.string("precision", {"double", "float"}) == "float" ? Precision::float32 : Precision::float64;
   s.gravity = t.vec3("gravity", {0, 0, 0});
   s.output_directors = t.boolean("output_directors", true);
+  if (t.has("validity")) {
+    const Table v = t.sub("validity", {"strain", "stretch", "energy_growth", "on_violation"});
+    if (v.has("strain")) s.validity.strain = v.positive("strain");
+    if (v.has("stretch")) s.validity.stretch = v.positive("stretch");
+    if (v.has("energy_growth")) s.validity.energy_growth = v.positive("energy_growth");
+    if (v.has("on_violation")) s.validity.error = v.string("on_violation", {"warn", "error"}) == "error";
+  }
   return s;
 }
 

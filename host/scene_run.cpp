@@ -250,24 +250,37 @@ Energies scene_energies(const RodBatch<T>& b, const StepChoice& c, int rod) {
 }
 
 template <class T>
-double max_strain(const RodBatch<T>& b, int rod, double width) {
+StrainPeak strain_peak(const RodBatch<T>& b, int rod, double width) {
   const ModelView<T> m = b.model_view();
   const ConstStateView<T> s = b.state_view();
-  double worst = 0;
-  auto take = [&](double v) {
-    if (!(v <= worst)) worst = v;  // NaN propagates
+  StrainPeak p;
+  auto take = [&](double v, int where, bool bend) {
+    if (!(v <= p.value)) {  // NaN propagates
+      p.value = v;
+      p.where = where;
+      p.bending = bend;
+    }
+    if (!bend && !(v <= p.stretch)) {
+      p.stretch = v;
+      p.stretch_element = where;
+    }
   };
   const int n = b.elements(rod);
   for (int e = 0; e < n; ++e) {
     const vec3<T> sigma = element_strain(b.elem_index(rod, e), m, s).sigma;
-    take(std::sqrt(double(dot(sigma, sigma))));
+    take(std::sqrt(double(dot(sigma, sigma))), e, false);
   }
   for (int j = 0; j + 1 < n; ++j) {
     const int k = b.vor_index(rod, j);
     const vec3<T> dk = voronoi_strain(k, m, s).kappa - load3(m.vor_rest_curvature, k);
-    take(std::sqrt(double(dot(dk, dk))) * width / 2);
+    take(std::sqrt(double(dot(dk, dk))) * width / 2, j, true);
   }
-  return worst;
+  return p;
+}
+
+template <class T>
+double max_strain(const RodBatch<T>& b, int rod, double width) {
+  return strain_peak(b, rod, width).value;
 }
 
 template <class T>
@@ -296,6 +309,7 @@ void gather_directors(const RodBatch<T>& b, std::vector<T>& out) {
   template void advance_scene<T>(RodBatch<T>&, const StepChoice&, T, std::int64_t, const Exec&); \
   template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);               \
   template double max_strain<T>(const RodBatch<T>&, int, double);                                \
+  template StrainPeak strain_peak<T>(const RodBatch<T>&, int, double);                           \
   template void gather_positions<T>(const RodBatch<T>&, std::vector<T>&);                        \
   template void gather_directors<T>(const RodBatch<T>&, std::vector<T>&);
 MANYRODS_SCENE_INSTANTIATE(float)

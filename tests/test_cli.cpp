@@ -170,7 +170,12 @@ TEST(Cli, ExampleScenesRun) {
     SCOPED_TRACE(e.file);
     const std::string out = path(std::string(e.file) + ".h5");
     const Result r = cli("run " + scenes + "/" + e.file + ".toml -o " + out + " --duration " + e.duration);
-    ASSERT_EQ(r.status, 0) << r.err;
+    // the stiff grooms finish with validity warnings (exit 3): their hairs
+    // gain elastic energy where they hit the head, contact being a stage
+    // after the stiff solve (docs/contact.md "Limitations")
+    const bool stiff_groom = std::string(e.file).rfind("hair_", 0) == 0;
+    if (stiff_groom && r.status == 3) expect_contains(r.err, "manyrods: validity: ");
+    else ASSERT_EQ(r.status, 0) << r.err;
     const h5::Reader rd(out);
     EXPECT_EQ(int(rd.output().node_offsets.size()) - 1, e.rods);
     EXPECT_GE(rd.frames(), 2);
@@ -541,6 +546,53 @@ TEST(Cli, StepsAboveTheStableLimitAndBadOutputsAreRefusedBeforeAnyWork) {
   r = cli("plot " + out + " --out-dir /proc/plots");
   EXPECT_EQ(r.status, 2);
   expect_contains(r.err, "manyrods plot: --out-dir /proc/plots: cannot create or write this directory");
+}
+
+TEST(Cli, ValidityMonitorWarnsOrStops) {
+  // an undamped beam forced to 1.2 x its stable step: the energy grows
+  // without a source, the monitor says so at the first sample point past
+  // 1 %, before the state turns non-finite (every step is a sample point here)
+  std::string rods = cantilever(8, 0.5, 0.005);
+  rods = rods.substr(rods.find("[[rods]]"));
+  rods = rods.substr(0, rods.find("damping"));
+  const std::string sim = "[simulation]\ndt = 0.00035\nduration = 0.5\noutput_interval = 0.00035\n";
+  const std::string out = path("valid.h5");
+  fs::remove(out);
+  Result r = cli("run " + write_scene("stop.toml", sim + "validity = { on_violation = \"error\" }\n" + rods) + " -o " +
+                 out + " --force-dt");
+  EXPECT_EQ(r.status, 1);
+  expect_contains(r.err, "the simulation failed: ");
+  expect_contains(r.err, "validity: at t = ");
+  expect_contains(r.err, " s the energy has grown by");
+  expect_contains(r.err, "with no source of work");
+  EXPECT_FALSE(fs::exists(out) || fs::exists(out + ".tmp"));
+  // warn (the default): the warnings come as they happen, then it blows up
+  r = cli("run " + write_scene("warn.toml", sim + rods) + " -o " + out + " --force-dt");
+  EXPECT_EQ(r.status, 1);
+  expect_contains(r.err, "manyrods: warning: validity: at t = ");
+  expect_contains(r.err, " s the energy has grown by");
+  expect_contains(r.err, "has stretch/shear |sigma|");
+  expect_contains(r.err, "non-finite state");
+  // a run that finishes beyond a limit: exit 3, the file written, a summary
+  // line naming the rod, the joint, the value and the time
+  r = cli("run " + write_scene("strain.toml", cantilever(8, 0.05, 0.01, "validity = { strain = 0.001 }")) + " -o " + out);
+  EXPECT_EQ(r.status, 3) << r.err;
+  expect_contains(r.err, "manyrods: warning: validity: at t = ");
+  expect_contains(r.err, "rod 0 ('beam[0]') joint ");
+  expect_contains(r.err, "manyrods: validity: strain above 0.001 in 1 of 1 rods, worst ");
+  EXPECT_GE(h5::Reader(out).frames(), 2);
+  // the same run within the default limits: exit 0, no validity line
+  r = cli("run " + write_scene("fine.toml", cantilever(8, 0.05, 0.01)) + " -o " + out);
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err.find("validity"), std::string::npos) << r.err;
+  // bad keys are named
+  r = cli("run " + write_scene("badv.toml", cantilever(8, 0.05, 0.01, "validity = { strain = -1 }")) + " -o " + out);
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "simulation.validity.strain: must be > 0");
+  r = cli("run " + write_scene("badw.toml", cantilever(8, 0.05, 0.01, "validity = { on_violation = \"panic\" }")) +
+          " -o " + out);
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "simulation.validity.on_violation");
 }
 
 TEST(Cli, FramesFallOnExactMultiplesOfTheOutputInterval) {

@@ -6,9 +6,11 @@
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
 //
-// Exit status: 0 done, 1 the simulation failed (non-finite state) or a tool
-// failed, 2 bad input (scene, options, HDF5 file), 130 interrupted by Ctrl-C
-// (the output is then a valid file with the frames so far and a checkpoint).
+// Exit status: 0 done, 3 done with validity warnings, 1 the simulation
+// failed (non-finite state, a validity error) or a tool failed, 2 bad input
+// (scene, options, HDF5 file, a step above the stable limit, an unwritable
+// output), 130 interrupted by Ctrl-C (the output is then a valid file with
+// the frames so far and a checkpoint).
 #include <omp.h>
 #include <unistd.h>
 
@@ -65,8 +67,12 @@ void summary_line(const RunResult& r, const std::string& out) {
   if (r.max_contacts > 0 || r.max_penetration > 0)
     std::fprintf(stderr, "manyrods: contact: up to %lld contacts in a frame, deepest overlap %.3g m\n",
                  (long long)r.max_contacts, r.max_penetration);
+  for (const std::string& v : r.validity) std::fprintf(stderr, "manyrods: validity: %s\n", v.c_str());
   profile_lines(r.stages);
 }
+
+// The exit status of a finished run: 0, 3 with validity warnings, 130 interrupted.
+int run_status(const RunResult& r) { return g_interrupt ? 130 : (r.validity.empty() ? 0 : 3); }
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -220,7 +226,7 @@ int run_sweep(const Sweep& sw, RunOptions opt, std::string csv, const h5::Checkp
   write_csv(csv, params, summary);
   summary_line(r, opt.output);
   std::fprintf(stderr, "manyrods: sweep summary -> %s\n", csv.c_str());
-  return g_interrupt ? 130 : 0;
+  return run_status(r);
 }
 
 // Every option of every subcommand (CLI11 writes into it).
@@ -322,6 +328,9 @@ RunOptions run_options(const Options& o) {
   opt.progress = o.progress;
   opt.profile = o.profile;
   opt.interrupt = &g_interrupt;
+  opt.on_warning = [progress = o.progress](const std::string& m) {
+    std::fprintf(stderr, "%smanyrods: warning: %s\n", progress ? "\n" : "", m.c_str());
+  };
   std::signal(SIGINT, on_sigint);
   return opt;
 }
@@ -372,7 +381,7 @@ int command_run(const Options& o) {
                    s.sim.dt, r.dt, s.sim.output_interval);
   }
   summary_line(r, o.output);
-  return g_interrupt ? 130 : 0;
+  return run_status(r);
 }
 
 int command_sweep(const Options& o) {
@@ -394,6 +403,11 @@ int report(const std::exception& e) {
   if (dynamic_cast<const SceneError*>(&e) || dynamic_cast<const h5::H5Error*>(&e)) {
     std::fprintf(stderr, "manyrods: error: %s\n", e.what());
     return 2;
+  }
+  if (dynamic_cast<const ValidityError*>(&e)) {
+    std::fprintf(stderr, "manyrods: the simulation failed: %s\n(no output written; validity.on_violation = \"error\")\n",
+                 e.what());
+    return 1;
   }
   if (dynamic_cast<const NonFiniteError*>(&e)) {
     std::fprintf(stderr,

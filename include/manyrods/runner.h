@@ -18,6 +18,7 @@
 #include <csignal>
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -55,6 +56,9 @@ struct RunOptions {
   bool profile = false;   // time each stage of the step (RunResult::stages)
   const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
   std::vector<Probe> probes;
+  // Called with each new kind of validity violation when it is first seen
+  // (host/validity.h; docs/scenes.md "The validity monitor").
+  std::function<void(const std::string&)> on_warning;
   // Called before the file is closed (the sweep adds /sweep here).
   std::function<void(h5::Writer&, const std::vector<ProbeRecord>&)> before_finish;
 };
@@ -74,13 +78,21 @@ struct RunResult {
   // and the deepest overlap (m)
   std::int64_t max_contacts = 0;
   double max_penetration = 0;
+  // the validity monitor's summary, a line per kind of violation seen
+  // (empty: the run stayed in the model's range)
+  std::vector<std::string> validity;
+};
+
+// A validity violation with [simulation] validity.on_violation = "error".
+struct ValidityError : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 // Runs the scene (from its initial state, or from `restart`, whose scene
 // must be `s`; with probes, a sweep's checkpoint, whose records continue)
 // and writes the output. Throws SceneError, h5::H5Error,
-// NonFiniteError (the output file is then not written; an existing one is
-// kept).
+// NonFiniteError, ValidityError (the output file is then not written; an
+// existing one is kept).
 RunResult run_scene(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart = nullptr);
 
 }  // namespace manyrods::scene

@@ -33,6 +33,25 @@ struct SceneError : std::runtime_error {
 
 enum class Precision { float64, float32 };
 
+// The validity monitor of a run (docs/scenes.md "The validity monitor"):
+// checked at every sample point (every 64 steps and every frame).
+struct Validity {
+  // the seed model's linear Kelvin–Voigt law holds for small strains: the
+  // largest |σ| (shear, stretch) or |κ − U0|·width/2 (bending, twist at the
+  // section's outer fibre) above this is a warning (the seed's own damped
+  // cantilever reaches 5 %)
+  double strain = 0.1;
+  // an element stretched or sheared beyond this (|σ|) is nonsense for any
+  // rod model here: a warning, and an error with on_violation = error
+  double stretch = 0.5;
+  // mechanical energy (kinetic + elastic + potential − contact work; damping
+  // only lowers it) above its start by this fraction of the largest kinetic
+  // + elastic energy seen, in a scene without a source of work (driven
+  // roots, tip forces, moving colliders)
+  double energy_growth = 0.01;
+  bool error = false;  // on_violation = "error": stop the run (exit 1), else warn (exit 3)
+};
+
 struct Simulation {
   bool dt_auto = true;  // dt = "auto": stable_dt(batch).elastic × dt_safety
   double dt = 0;        // s, when !dt_auto
@@ -47,6 +66,7 @@ struct Simulation {
   Precision precision = Precision::float64;
   Vec3 gravity{0, 0, 0};         // m/s²
   bool output_directors = true;  // write /element_directors frames
+  Validity validity;             // [simulation] validity = { ... }
 };
 
 // Which terms a group's rods include (include/manyrods/terms.h). shear, stretch, bend
@@ -165,6 +185,19 @@ Energies scene_energies(const RodBatch<T>& b, const StepChoice& c, int rod = -1)
 // |κ − U0|·width/2 (bending and twist at the section's outer fibre).
 template <class T>
 double max_strain(const RodBatch<T>& b, int rod, double width);
+
+// The same with where it is: `where` the element (stretch, shear) or the
+// interior joint j (bending, twist; between elements j and j+1), and the
+// largest |σ| alone with its element.
+struct StrainPeak {
+  double value = 0;
+  int where = 0;
+  bool bending = false;
+  double stretch = 0;
+  int stretch_element = 0;
+};
+template <class T>
+StrainPeak strain_peak(const RodBatch<T>& b, int rod, double width);
 
 // Node positions [nodes, 3] and element directors [elements, 3, 3] of all
 // rods, without ghosts, in rod order (the HDF5 frame layout).
