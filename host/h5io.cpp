@@ -362,6 +362,8 @@ void Writer::write_checkpoint(const Checkpoint& c) {
   attr_scalar<std::int64_t>(g.get(), "steps", c.steps, H5T_NATIVE_INT64, w.tmp);
   attr_scalar<double>(g.get(), "dissipated", c.dissipated, H5T_NATIVE_DOUBLE, w.tmp);
   attr_scalar<double>(g.get(), "last_dissipation_rate", c.last_rate, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<double>(g.get(), "validity_energy0", c.validity_energy0, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<double>(g.get(), "validity_scale", c.validity_scale, H5T_NATIVE_DOUBLE, w.tmp);
   attr_scalar<std::int64_t>(g.get(), "frames_written", c.frames_written, H5T_NATIVE_INT64, w.tmp);
   const hid_t type = c.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
   const std::size_t es = c.float32 ? 4 : 8;
@@ -452,6 +454,8 @@ Checkpoint read_checkpoint(const std::string& path) {
   c.steps = read_attr_scalar<std::int64_t>(g.get(), "steps", H5T_NATIVE_INT64, path, where);
   c.dissipated = read_attr_scalar<double>(g.get(), "dissipated", H5T_NATIVE_DOUBLE, path, where);
   c.last_rate = read_attr_scalar<double>(g.get(), "last_dissipation_rate", H5T_NATIVE_DOUBLE, path, where);
+  c.validity_energy0 = read_attr_scalar<double>(g.get(), "validity_energy0", H5T_NATIVE_DOUBLE, path, where);
+  c.validity_scale = read_attr_scalar<double>(g.get(), "validity_scale", H5T_NATIVE_DOUBLE, path, where);
   c.frames_written = read_attr_scalar<std::int64_t>(g.get(), "frames_written", H5T_NATIVE_INT64, path, where);
   const Id sg = checked(H5Gopen2(f.get(), "scene", H5P_DEFAULT), H5Gclose, path, "missing group /scene");
   c.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
@@ -530,7 +534,7 @@ Checkpoint read_checkpoint(const std::string& path) {
 
 struct Reader::Impl {
   std::string path;
-  Id file, pos;
+  Id file, pos, dir;
   Output out;
   std::int64_t frames = 0;
 };
@@ -606,6 +610,31 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
 Reader::~Reader() = default;
 const Output& Reader::output() const { return impl_->out; }
 std::int64_t Reader::frames() const { return impl_->frames; }
+
+bool Reader::has_directors() const {
+  return H5Lexists(impl_->file.get(), "element_directors", H5P_DEFAULT) > 0;
+}
+
+void Reader::read_directors(std::int64_t f, std::vector<double>& out) const {
+  Impl& r = *impl_;
+  if (f < 0 || f >= r.frames) fail(r.path, "frame " + std::to_string(f) + " out of range");
+  if (!r.dir.ok())
+    r.dir = checked(H5Dopen2(r.file.get(), "element_directors", H5P_DEFAULT), H5Dclose, r.path,
+                    "no /element_directors (written with output_directors = false?)");
+  const std::int64_t elements = r.out.element_offsets.back();
+  out.resize(std::size_t(elements) * 9);
+  const Id fs = checked(H5Dget_space(r.dir.get()), H5Sclose, r.path, "cannot read the shape of /element_directors");
+  hsize_t dims[4] = {0, 0, 0, 0};
+  if (H5Sget_simple_extent_ndims(fs.get()) != 4 || H5Sget_simple_extent_dims(fs.get(), dims, nullptr) != 4 ||
+      dims[0] < hsize_t(r.frames) || dims[1] != hsize_t(elements) || dims[2] != 3 || dims[3] != 3)
+    fail(r.path, "/element_directors does not have the shape [frames, elements, 3, 3]");
+  const hsize_t start[4] = {hsize_t(f), 0, 0, 0}, count[4] = {1, hsize_t(elements), 3, 3};
+  check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), r.path,
+        "bad frame selection");
+  const Id ms(H5Screate_simple(4, count, nullptr), H5Sclose);
+  check(H5Dread(r.dir.get(), H5T_NATIVE_DOUBLE, ms.get(), fs.get(), H5P_DEFAULT, out.data()), r.path,
+        "cannot read /element_directors frame " + std::to_string(f) + " (truncated or damaged file?)");
+}
 
 void Reader::read_positions(std::int64_t f, std::vector<double>& out) const {
   const Impl& r = *impl_;

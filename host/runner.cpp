@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <type_traits>
 
@@ -115,24 +116,27 @@ class SceneRun {
       throw SceneError(s.source + ": the run is already at step " + std::to_string(res_.first_step) + " of " +
                        std::to_string(total_) + " (give a longer --duration to continue it)");
     check_output(opt_.output, output_bytes());
+    if (parts_) prepare_parts();
   }
 
   RunResult run() {
-    h5::Writer w(opt_.output, layout(), h5::RunInfo{s_.text, s_.source,
-                                                    s_.sim.integrator == Integrator::pefrl ? "pefrl" : "position_verlet",
-                                                    res_.dt});
+    std::unique_ptr<h5::Writer> w = open_writer();
     // The first frame: the initial state, or a restart's state when it lies on
     // the frame grid (then the restarted file's frames are exactly those of
-    // the uninterrupted run from there on).
-    if (b_.state.steps % per_frame_ == 0) write_frame(w, scene_energies(b_, choice_));
+    // the uninterrupted run from there on); not for a resumed run, whose
+    // last part holds it.
+    if (b_.state.steps % per_frame_ == 0 && !opt_.resume) write_frame(*w, scene_energies(b_, choice_));
     if (restart_ && !opt_.probes.empty()) restore_probes(*restart_);
     else sample_probes(true);
-    monitor_.emplace(s_, b_, scene_energies(b_, choice_), dissipated_);
+    monitor_.emplace(s_, b_, scene_energies(b_, choice_), dissipated_,
+                     restart_ ? restart_->validity_energy0 : NAN, restart_ ? restart_->validity_scale : NAN);
     loop(w);
     res_.validity = monitor_->summary(b_.rod_count());
-    w.write_checkpoint(checkpoint(w));
-    if (opt_.before_finish) opt_.before_finish(w, probes_);
-    w.finish();
+    const h5::Checkpoint last = checkpoint(*w);
+    w->write_checkpoint(last);
+    if (opt_.before_finish) opt_.before_finish(*w, probes_);
+    w->finish();
+    if (parts_) res_.frames = merge_parts(list_parts(opt_.output), opt_.output, layout(), info(), last);
     res_.probes = std::move(probes_);
     return res_;
   }
@@ -190,6 +194,42 @@ class SceneRun {
     const std::uint64_t per_frame =
         sizeof(T) * (3 * nodes + (s_.sim.output_directors ? 9 * std::uint64_t(b_.element_count()) : 0)) + 8 * 8;
     return frames * per_frame + b_.bytes();
+  }
+
+  h5::RunInfo info() const {
+    return {s_.text, s_.source, s_.sim.integrator == Integrator::pefrl ? "pefrl" : "position_verlet", res_.dt};
+  }
+
+  // The writer of the output, or of the next part (checkpoints in parts,
+  // include/manyrods/runner.h).
+  std::unique_ptr<h5::Writer> open_writer() {
+    if (!parts_) return std::make_unique<h5::Writer>(opt_.output, layout(), info());
+    part_start_ = std::chrono::steady_clock::now();
+    return std::make_unique<h5::Writer>(part_path(opt_.output, ++part_), layout(), info());
+  }
+
+  // Parts: a fresh run refuses to start over the parts of an interrupted
+  // one; a resumed run continues after the last.
+  void prepare_parts() {
+    const std::vector<std::string> parts = list_parts(opt_.output, opt_.resume);
+    if (!opt_.resume && !parts.empty())
+      throw SceneError("output " + opt_.output + ": " + parts_dir(opt_.output) + " holds " +
+                       std::to_string(parts.size()) +
+                       " parts of an interrupted run: add --resume to continue it, or remove the directory to "
+                       "start over");
+    part_ = int(parts.size());
+    std::error_code ec;
+    std::filesystem::create_directories(parts_dir(opt_.output), ec);
+    if (ec) throw SceneError("output " + opt_.output + ": cannot make " + parts_dir(opt_.output) + ": " + ec.message());
+  }
+
+  // At a sample point: close the current part with a checkpoint and begin the next.
+  void roll(std::unique_ptr<h5::Writer>& w) {
+    w->write_checkpoint(checkpoint(*w));
+    w->finish();
+    frames_before_ += w->frames();
+    part_frames_ += w->frames();
+    w = open_writer();
   }
 
   h5::Layout layout() const {
@@ -280,7 +320,7 @@ class SceneRun {
 
   // From sample point to sample point (every kSampleSteps-th step, every
   // frame, the last step) until the end, Ctrl-C or --until.
-  void loop(h5::Writer& w) {
+  void loop(std::unique_ptr<h5::Writer>& w) {
     using clock = std::chrono::steady_clock;
     Profile profile;
     const Exec ex{std::max(1, opt_.threads), opt_.profile ? &profile : nullptr};
@@ -298,8 +338,10 @@ class SceneRun {
       last_rate_ = e.dissipation;
       if (!opt_.probes.empty()) sample_probes(false);
       check_validity(e);
-      if (step % per_frame_ == 0 || step == total_) write_frame(w, e);
+      if (step % per_frame_ == 0 || step == total_) write_frame(*w, e);
       const auto now = clock::now();
+      if (parts_ && step < total_ && std::chrono::duration<double>(now - part_start_).count() >= opt_.checkpoint_every)
+        roll(w);
       if (opt_.progress && (std::chrono::duration<double>(now - last_print).count() > 0.5 || step == total_)) {
         last_print = now;
         progress(step, std::chrono::duration<double>(now - t0).count());
@@ -313,7 +355,7 @@ class SceneRun {
     res_.wall_s = std::chrono::duration<double>(clock::now() - t0).count();
     res_.steps = step;
     res_.time = b_.state.time;
-    res_.frames = w.frames();
+    res_.frames = part_frames_ + w->frames();
     res_.element_steps_per_s = double(step - res_.first_step) * double(res_.elements) / std::max(res_.wall_s, 1e-9);
     res_.stages = profile.total();
     res_.state_hash = state_hash(b_);
@@ -350,6 +392,10 @@ class SceneRun {
     c.dissipated = dissipated_;
     c.last_rate = last_rate_;
     c.frames_written = frames_before_ + w.frames();
+    if (monitor_) {
+      c.validity_energy0 = monitor_->energy0();
+      c.validity_scale = monitor_->scale();
+    }
     c.scene_text = s_.text;
     c.scene_source = s_.source;
 #define MANYRODS_SAVE(name, n, fill, float_only, doc) \
@@ -380,6 +426,10 @@ class SceneRun {
   double duration_ = 0;
   std::int64_t total_ = 0, per_frame_ = 1, frames_before_ = 0;
   std::optional<ValidityMonitor<T>> monitor_;
+  const bool parts_ = opt_.checkpoint_every > 0;
+  int part_ = 0;  // parts begun
+  std::int64_t part_frames_ = 0;  // frames in the parts this run closed
+  std::chrono::steady_clock::time_point part_start_;
   double dissipated_ = 0, last_rate_ = 0;
   std::vector<ProbeRecord> probes_;
   std::vector<double> probe_rate_;

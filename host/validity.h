@@ -17,6 +17,7 @@
 // evaluation per element and joint every 64 steps.
 #pragma once
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -28,11 +29,14 @@ namespace manyrods::scene {
 template <class T>
 class ValidityMonitor {
  public:
-  // e0, dissipated0: the energies and ∫ 2 D_v dt where the run starts
-  ValidityMonitor(const Scene& s, const RodBatch<T>& b, const Energies& e0, double dissipated0)
+  // e0, dissipated0: the energies and ∫ 2 D_v dt where the run starts; a
+  // continued run passes the reference it had (reference(), kept in the
+  // checkpoint), so that it judges as the uninterrupted run does
+  ValidityMonitor(const Scene& s, const RodBatch<T>& b, const Energies& e0, double dissipated0,
+                  double energy0 = NAN, double scale = NAN)
       : s_(s), lim_(s.sim.validity) {
-    e0_ = budget(e0, dissipated0);
-    scale_ = e0.kinetic + e0.elastic;
+    e0_ = std::isnan(energy0) ? budget(e0, dissipated0) : energy0;
+    scale_ = std::isnan(scale) ? e0.kinetic + e0.elastic : scale;
     source_ = !b.driven.empty();
     for (const RodGroup& g : s.groups)
       if (g.tip_force[0] != 0 || g.tip_force[1] != 0 || g.tip_force[2] != 0) source_ = true;
@@ -59,6 +63,9 @@ class ValidityMonitor {
     if (!source_ && scale_ > 0 && !(gain <= lim_.energy_growth * scale_))
       note(kEnergy, -1, gain / scale_, t, "", out, b);
   }
+
+  double energy0() const { return e0_; }
+  double scale() const { return scale_; }
 
   bool any() const { return kinds_[0].count + kinds_[1].count + kinds_[2].count > 0; }
 

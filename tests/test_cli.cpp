@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "manyrods/h5io.h"
+#include "manyrods/runner.h"
 
 using namespace manyrods;
 namespace fs = std::filesystem;
@@ -253,7 +254,8 @@ TEST(Cli, CtrlCLeavesAValidFileWithACheckpoint) {
     _exit(127);
   }
   const auto t0 = std::chrono::steady_clock::now();
-  while (!fs::exists(out + ".tmp") && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
+  // (running: its first part is being written, include/manyrods/runner.h "Checkpoints in parts")
+  while (!fs::exists(scene::part_path(out, 1) + ".tmp") && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   kill(pid, SIGINT);
@@ -262,7 +264,7 @@ TEST(Cli, CtrlCLeavesAValidFileWithACheckpoint) {
   ASSERT_TRUE(WIFEXITED(status)) << slurp(err);
   EXPECT_EQ(WEXITSTATUS(status), 130) << slurp(err);
   expect_contains(slurp(err), "manyrods: stopped:");
-  EXPECT_FALSE(fs::exists(out + ".tmp"));
+  EXPECT_FALSE(fs::exists(out + ".tmp") || fs::exists(out + ".parts"));
   const h5::Reader rd(out);
   EXPECT_GE(rd.frames(), 1);
   EXPECT_LT(rd.frames(), 1001);
@@ -546,6 +548,84 @@ TEST(Cli, StepsAboveTheStableLimitAndBadOutputsAreRefusedBeforeAnyWork) {
   r = cli("plot " + out + " --out-dir /proc/plots");
   EXPECT_EQ(r.status, 2);
   expect_contains(r.err, "manyrods plot: --out-dir /proc/plots: cannot create or write this directory");
+}
+
+TEST(Cli, AKilledRunResumesToTheUninterruptedResultBitForBit) {
+  // 64 damped beams (2,048 elements), 0.2 s: a few seconds of wall time,
+  // checkpoints every 0.05 s of it. Killed with SIGKILL at random moments
+  // (fixed seed) and resumed each time until it finishes, the output must
+  // equal the uninterrupted run's (written in one piece): every frame's
+  // time, positions, directors and energies, bit for bit, and the final state.
+  const std::string text =
+      "[simulation]\ndt = \"auto\"\nduration = 0.2\noutput_interval = 0.01\n"
+      "[[rods]]\nname = \"beam\"\ncount = 64\nelements = 32\nlength = 0.3\n"
+      "placement = { kind = \"grid\", spacing = [0.02, 0.02] }\n"
+      "initial_tip_force = [0.005, 0.0, 0.0]\n"
+      "section = { shape = \"rectangle\", width = 0.01, height = 0.01 }\n"
+      "material = { density = 1000.0, youngs_modulus = 1.0e6, poisson_ratio = 0.3 }\n"
+      "damping = { tau_shear = 0.02, tau_extension = 0.02 }\n";
+  const std::string scene = write_scene("beams.toml", text);
+  const std::string ref = path("beams_ref.h5"), out = path("beams.h5");
+  fs::remove_all(out + ".parts");
+  fs::remove(out);
+  const Result r0 = cli("run " + scene + " -o " + ref + " --checkpoint-every 0");
+  ASSERT_EQ(r0.status, 0) << r0.err;
+  const std::string hash = r0.err.substr(r0.err.find("state hash ") + 11, 16);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> when(0.15, 1.2);
+  int kills = 0, status = -1;
+  bool looked = false;
+  for (int attempt = 0; attempt < 30 && status != 0; ++attempt) {
+    const bool kill = kills < 3;
+    char t[32];
+    std::snprintf(t, sizeof t, "%.2f", when(rng));
+    const std::string cmd = std::string(kill ? "timeout -s KILL " + std::string(t) + " " : "") + kCli + " run " + scene +
+                            " -o " + out + " --checkpoint-every 0.05" + (attempt > 0 ? " --resume" : "") +
+                            " > " + path("stdout.txt") + " 2> " + path("stderr.txt");
+    const int rc = std::system(cmd.c_str());
+    status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+    if (status == 137 || status == 124) ++kills;
+    else ASSERT_EQ(status, 0) << slurp(path("stderr.txt"));
+    // what was closed so far is readable while the run is stopped
+    if (status != 0 && !looked) {
+      const std::vector<std::string> parts = scene::list_parts(out);
+      if (!parts.empty()) {
+        const h5::Reader part(parts.back());
+        std::vector<double> x;
+        part.read_positions(part.frames() - 1, x);
+        EXPECT_EQ(x.size(), std::size_t(64 * 33 * 3));
+        looked = true;
+      }
+    }
+  }
+  ASSERT_EQ(status, 0);
+  EXPECT_GE(kills, 3);
+  expect_contains(slurp(path("stderr.txt")), "state hash " + hash);
+  EXPECT_FALSE(fs::exists(out + ".parts"));
+  const h5::Reader a(ref), b(out);
+  ASSERT_EQ(a.frames(), b.frames());
+  EXPECT_TRUE(a.output().time == b.output().time);
+  std::vector<double> xa, xb;
+  for (std::int64_t f = 0; f < a.frames(); ++f) {
+    a.read_positions(f, xa);
+    b.read_positions(f, xb);
+    ASSERT_TRUE(xa == xb) << "positions of frame " << f;
+    a.read_directors(f, xa);
+    b.read_directors(f, xb);
+    ASSERT_TRUE(xa == xb) << "directors of frame " << f;
+    const h5::EnergyRow &ea = a.output().energy[std::size_t(f)], &eb = b.output().energy[std::size_t(f)];
+    ASSERT_TRUE(ea.kinetic == eb.kinetic && ea.elastic == eb.elastic && ea.dissipated == eb.dissipated &&
+                ea.dissipation_rate == eb.dissipation_rate)
+        << "energies of frame " << f;
+  }
+  // a fresh run does not start over the parts of an interrupted one
+  ASSERT_EQ(std::system(("timeout -s KILL 0.6 " + kCli + " run " + scene + " -o " + out +
+                         " --checkpoint-every 0.05 > /dev/null 2>&1").c_str()) != 0, true);
+  if (!scene::list_parts(out).empty()) {
+    const Result r = cli("run " + scene + " -o " + out);
+    EXPECT_EQ(r.status, 2);
+    expect_contains(r.err, "parts of an interrupted run: add --resume to continue it");
+  }
 }
 
 TEST(Cli, ValidityMonitorWarnsOrStops) {

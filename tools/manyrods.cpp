@@ -236,7 +236,8 @@ struct Options {
   double until = -1, duration = -1;
   std::uint64_t seed = 0;
   bool progress = isatty(2) != 0, no_progress = false, force_progress = false, profile = false;
-  bool force_dt = false;
+  bool force_dt = false, resume = false;
+  double checkpoint_every = 300;
   std::vector<std::string> vary;
 };
 
@@ -281,6 +282,10 @@ CLI::App* add_run_command(CLI::App& app, Options& o) {
       ->check(non_negative);
   run->add_option("--duration", o.duration, "override [simulation] duration (s)")->check(positive);
   run->add_option("--csv", o.csv, "restarting a sweep: summary CSV (default: the output with .csv)");
+  run->add_option("--checkpoint-every", o.checkpoint_every,
+                  "wall seconds between checkpoints, each closing a part of the output (0: none; default 300)")
+      ->check(number_check(false));
+  run->add_flag("--resume", o.resume, "continue this scene's run into this output from its last checkpoint (after a kill)");
   add_force_dt_flag(run, o);
   add_progress_flags(run, o);
   return run;
@@ -328,6 +333,7 @@ RunOptions run_options(const Options& o) {
   opt.progress = o.progress;
   opt.profile = o.profile;
   opt.interrupt = &g_interrupt;
+  opt.checkpoint_every = o.checkpoint_every;
   opt.on_warning = [progress = o.progress](const std::string& m) {
     std::fprintf(stderr, "%smanyrods: warning: %s\n", progress ? "\n" : "", m.c_str());
   };
@@ -352,6 +358,10 @@ int command_run(const Options& o) {
                  o.restart.c_str(), o.output.c_str());
     return 2;
   }
+  if (!o.restart.empty() && o.resume) {
+    std::fprintf(stderr, "manyrods run: --resume continues a scene's run into its output (give the scene, not --restart)\n");
+    return 2;
+  }
   if (!o.restart.empty() && o.force_dt) {
     std::fprintf(stderr, "manyrods run: --force-dt: a restart keeps the step of the run it continues\n");
     return 2;
@@ -362,7 +372,9 @@ int command_run(const Options& o) {
     const h5::Checkpoint c = h5::read_checkpoint(o.restart);
     if (c.from_sweep) {  // a sweep continued: the same variations, its records go on
       const Sweep sw = sweep_of_checkpoint(c, o.restart);
-      return run_sweep(sw, opt, o.csv, &c);
+      RunOptions so = opt;
+      so.checkpoint_every = 0;  // (sweeps are written in one piece)
+      return run_sweep(sw, so, o.csv, &c);
     }
     if (!o.csv.empty()) {
       std::fprintf(stderr, "manyrods run: --csv applies only to continuing a sweep; %s is a run\n", o.restart.c_str());
@@ -373,7 +385,25 @@ int command_run(const Options& o) {
   } else {
     Scene s = load_scene(o.scene_path);
     s.sim.force_dt = o.force_dt;
-    r = run_scene(s, opt);
+    const std::vector<std::string> parts = o.resume ? list_parts(o.output, true) : std::vector<std::string>{};
+    if (o.resume && parts.empty())
+      std::fprintf(stderr, "manyrods: note: --resume: no checkpoint of %s yet (%s holds no complete part): "
+                   "running from the start\n", o.output.c_str(), parts_dir(o.output).c_str());
+    if (!parts.empty()) {
+      const h5::Checkpoint c = h5::read_checkpoint(parts.back());
+      if (c.scene_text != s.text)
+        throw SceneError(o.scene_path + ": --resume: the parts in " + parts_dir(o.output) +
+                         " were made from a different scene text (the scene file changed?)");
+      std::fprintf(stderr, "manyrods: resuming from %s (t = %.6g s, step %lld)\n", parts.back().c_str(), c.time,
+                   (long long)c.steps);
+      RunOptions ro = opt;
+      ro.resume = true;
+      r = run_scene(s, ro, &c);
+    } else {
+      RunOptions ro = opt;
+      ro.resume = false;
+      r = run_scene(s, ro);
+    }
     if (!s.sim.dt_auto && r.dt != s.sim.dt)
       std::fprintf(stderr,
                    "manyrods: note: dt = %.6g s was shortened to %.6g s, so that output_interval = %.6g s is a whole "
@@ -389,7 +419,9 @@ int command_sweep(const Options& o) {
   for (const std::string& v : o.vary) vs.push_back(parse_vary(v));
   Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, o.samples, o.seed);
   sw.scene.sim.force_dt = o.force_dt;
-  return run_sweep(sw, run_options(o), o.csv, nullptr);
+  RunOptions opt = run_options(o);
+  opt.checkpoint_every = 0;  // sweeps are written in one piece (a checkpoint at the end, Ctrl-C, --until)
+  return run_sweep(sw, opt, o.csv, nullptr);
 }
 
 int command_export(const Options& o) {

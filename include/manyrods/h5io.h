@@ -28,6 +28,7 @@
 // an existing output is never left half-written.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
@@ -83,6 +84,9 @@ struct Checkpoint {
   double dissipated = 0;            // ∫ 2·D_v dt so far, J
   double last_rate = 0;             // 2·D_v at the last energy sample, W
   std::int64_t frames_written = 0;  // frames of the run up to this state
+  // the validity monitor's reference (host/validity.h): the budget at the
+  // run's start and the largest kinetic + elastic energy so far (NaN: none)
+  double validity_energy0 = NAN, validity_scale = NAN;
   std::string scene_text, scene_source;
   bool from_sweep = false;  // the file is a sweep's (read only)
   // The State arrays (include/manyrods/fields.h MANYRODS_STATE_FIELDS), raw
@@ -159,6 +163,9 @@ class Reader {
   std::int64_t frames() const;
   // Node positions of frame f, [nodes * 3], as double.
   void read_positions(std::int64_t f, std::vector<double>& out) const;
+  // Element directors of frame f, [elements * 9], as double.
+  bool has_directors() const;
+  void read_directors(std::int64_t f, std::vector<double>& out) const;
 
  private:
   struct Impl;

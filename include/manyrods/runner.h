@@ -49,6 +49,11 @@ struct ProbeRecord {
 
 struct RunOptions {
   std::string output;  // HDF5 path (written as <output>.tmp, renamed at the end)
+  // > 0: checkpoints in parts (below) every this many wall seconds
+  double checkpoint_every = 0;
+  // continue the parts of an interrupted run of this output (their last
+  // checkpoint is the run's `restart`; its first frame is not written again)
+  bool resume = false;
   int threads = 1;
   double until = -1;      // stop at the first sample point at or after this time (< 0: never)
   double duration = -1;   // overrides [simulation] duration when > 0
@@ -82,6 +87,26 @@ struct RunResult {
   // (empty: the run stayed in the model's range)
   std::vector<std::string> validity;
 };
+
+// Checkpoints in parts. With RunOptions::checkpoint_every > 0 the run writes
+// its frames into parts, <output>.parts/part-000001.h5, -000002, …: every
+// checkpoint_every wall seconds, at the next sample point, the current part
+// gets a checkpoint and is closed (written as .tmp, renamed when complete)
+// and the next one begins. Each closed part is a manyrods file (readable
+// while the run goes on). At the end the parts are merged into <output> and
+// removed. After a kill at any moment the parts so far are intact: the same
+// run with `resume` continues from the last one's checkpoint and loses at
+// most one interval; as the steps are those of an uninterrupted run (see the
+// top of this file) the merged output equals an uninterrupted run's.
+std::string parts_dir(const std::string& output);
+std::string part_path(const std::string& output, int k);  // k = 1, 2, …
+// The complete parts, in order (SceneError if one is missing); with
+// remove_unfinished, the .tmp of a part that was being written is removed.
+std::vector<std::string> list_parts(const std::string& output, bool remove_unfinished = false);
+// Writes the parts' frames, in order, and `last` (the last part's
+// checkpoint) into `output`, then removes the parts; returns the frames.
+std::int64_t merge_parts(const std::vector<std::string>& parts, const std::string& output, const h5::Layout& layout,
+                         const h5::RunInfo& info, const h5::Checkpoint& last);
 
 // A validity violation with [simulation] validity.on_violation = "error".
 struct ValidityError : std::runtime_error {
