@@ -194,11 +194,23 @@ Id open_dataset(hid_t loc, const char* name, const std::string& path) {
                  std::string("cannot open dataset ") + name);
 }
 
+// A size read from the file, before memory is taken for it: no more than
+// the file could hold (deflate expands at most ~1,032×), so that a damaged
+// size is an error, not an allocation of terabytes.
+void plausible(const std::string& path, const std::string& what, double count, double element_bytes) {
+  std::error_code ec;
+  const double file = double(std::filesystem::file_size(path, ec));
+  const double limit = (ec ? 0.0 : file) * 1100.0 + 64e6;
+  if (!(count >= 0) || !(count * element_bytes <= limit))
+    fail(path, what + ": " + std::to_string(count) + " entries, more than this file can hold (damaged?)");
+}
+
 template <class V>
 std::vector<V> read_vector(hid_t loc, const char* name, hid_t type, const std::string& path) {
   const Id d = open_dataset(loc, name, path);
   const auto dims = dataset_dims(d.get());
   if (dims.size() != 1) fail(path, std::string(name) + " has shape " + dims_str(dims) + ", expected 1-D");
+  plausible(path, name, double(dims[0]), sizeof(V));
   std::vector<V> v(dims[0]);
   if (!v.empty())
     check(H5Dread(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path,
@@ -473,6 +485,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     const Id ft(H5Dget_type(d.get()), H5Tclose);
     if (H5Tget_class(ft.get()) != H5T_FLOAT || H5Tget_size(ft.get()) != es)
       fail(path, std::string("/checkpoint/") + name + " is not " + prec + " data");
+    plausible(path, std::string("/checkpoint/") + name, double(rows) * double(c.slots), double(es));
     bytes.resize(rows * std::size_t(c.slots) * es);
     check(H5Dread(d.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()), path,
           std::string("cannot read /checkpoint/") + name + " (truncated or damaged file?)");
@@ -490,8 +503,10 @@ Checkpoint read_checkpoint(const std::string& path) {
       const Id d = open_dataset(pg.get(), name, path);
       const auto dims = dataset_dims(d.get());
       if (dims.size() != rank) fail(path, std::string("/checkpoint/probes/") + name + " has shape " + dims_str(dims));
-      std::size_t n = 1;
-      for (hsize_t x : dims) n *= std::size_t(x);
+      double count = 1;
+      for (hsize_t x : dims) count *= double(x);
+      plausible(path, std::string("/checkpoint/probes/") + name, count, 8);
+      const std::size_t n = std::size_t(count);
       v.resize(n);
       if (n > 0)
         check(H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path,
@@ -550,6 +565,13 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   o.node_offsets = read_vector<std::int64_t>(f, "node_offsets", H5T_NATIVE_INT64, path);
   o.element_offsets = read_vector<std::int64_t>(f, "element_offsets", H5T_NATIVE_INT64, path);
   if (o.node_offsets.size() < 2) fail(path, "/node_offsets has fewer than 2 entries");
+  if (o.element_offsets.size() != o.node_offsets.size())
+    fail(path, "/element_offsets and /node_offsets do not have one entry per rod + 1");
+  for (std::size_t i = 1; i < o.node_offsets.size(); ++i)
+    if (o.node_offsets[i] <= o.node_offsets[i - 1] || o.element_offsets[i] < o.element_offsets[i - 1] ||
+        o.node_offsets[i] - o.node_offsets[i - 1] != o.element_offsets[i] - o.element_offsets[i - 1] + 1)
+      fail(path, "/node_offsets and /element_offsets do not describe rods (entry " + std::to_string(i) + ")");
+  if (o.node_offsets[0] != 0 || o.element_offsets[0] != 0) fail(path, "/node_offsets or /element_offsets do not start at 0");
   o.nodes = o.node_offsets.back();
   o.rod_group = read_vector<std::int32_t>(f, "rods/group", H5T_NATIVE_INT32, path);
   o.rod_width = read_vector<double>(f, "rods/width", H5T_NATIVE_DOUBLE, path);
@@ -622,6 +644,7 @@ void Reader::read_directors(std::int64_t f, std::vector<double>& out) const {
     r.dir = checked(H5Dopen2(r.file.get(), "element_directors", H5P_DEFAULT), H5Dclose, r.path,
                     "no /element_directors (written with output_directors = false?)");
   const std::int64_t elements = r.out.element_offsets.back();
+  plausible(r.path, "/element_directors", double(elements) * 9, 8);
   out.resize(std::size_t(elements) * 9);
   const Id fs = checked(H5Dget_space(r.dir.get()), H5Sclose, r.path, "cannot read the shape of /element_directors");
   hsize_t dims[4] = {0, 0, 0, 0};
@@ -639,6 +662,7 @@ void Reader::read_directors(std::int64_t f, std::vector<double>& out) const {
 void Reader::read_positions(std::int64_t f, std::vector<double>& out) const {
   const Impl& r = *impl_;
   if (f < 0 || f >= r.frames) fail(r.path, "frame " + std::to_string(f) + " out of range");
+  plausible(r.path, "/node_position", double(r.out.nodes) * 3, 8);
   out.resize(std::size_t(r.out.nodes) * 3);
   const Id fs(H5Dget_space(r.pos.get()), H5Sclose);
   const hsize_t start[3] = {hsize_t(f), 0, 0}, count[3] = {1, hsize_t(r.out.nodes), 3};

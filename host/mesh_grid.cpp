@@ -76,6 +76,11 @@ std::string vertex_label(int i) { return std::to_string(i + 1); }  // OBJ number
 std::string read_text(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) fail(path, "cannot be read (it is a directory)");
+  // a regular file of sane size (not a device or a pipe that never ends)
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    fail(path, "cannot be read (not a regular file)");
+  if (std::filesystem::exists(path, ec) && std::filesystem::file_size(path, ec) > (std::uintmax_t(1) << 31))
+    fail(path, "is larger than 2 GB: not a head or body mesh for a signed-distance grid");
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, std::string("cannot be read (") + std::strerror(errno) + ")");
   std::ostringstream os;

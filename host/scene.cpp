@@ -12,6 +12,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -927,6 +928,11 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
 }
 
 Scene load_scene(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw SceneError(path + ": cannot read the scene file (not a regular file)");
+  if (std::filesystem::exists(path, ec) && std::filesystem::file_size(path, ec) > (std::uintmax_t(1) << 26))
+    throw SceneError(path + ": the scene file is larger than 64 MB (a scene is a short text; rod geometry comes from the placement)");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw SceneError(path + ": cannot read the scene file");
   std::stringstream ss;
