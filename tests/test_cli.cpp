@@ -82,6 +82,14 @@ std::string cantilever(int n, double duration, double interval, const std::strin
   return s.str();
 }
 
+// The [[rods]] group of cantilever(n, …) without its damping: an undamped
+// beam, whose steps above the stable limit blow up.
+std::string undamped_beam(int n) {
+  std::string rods = cantilever(n, 1.0, 0.1);
+  rods = rods.substr(rods.find("[[rods]]"));
+  return rods.substr(0, rods.find("damping"));
+}
+
 std::string write_scene(const std::string& name, const std::string& text) {
   const std::string p = path(name);
   std::ofstream(p) << text;
@@ -446,9 +454,7 @@ TEST(Cli, BadInputExitsNonZeroWithAClearMessage) {
 
   // a simulation that blows up: exit 1, the message says where, output kept
   // (no damping: the implicit Kelvin–Voigt update would keep even this step bounded)
-  std::string rods = cantilever(8, 1.0, 0.1);
-  rods = rods.substr(rods.find("[[rods]]"));
-  rods = rods.substr(0, rods.find("damping"));
+  const std::string rods = undamped_beam(8);
   const std::string blow = write_scene("blow.toml", "[simulation]\ndt = 0.01\nduration = 1.0\n" + rods);
   r = cli("run " + blow + " -o " + out + " --force-dt");  // (refused without it, below)
   EXPECT_EQ(r.status, 1) << r.err;
@@ -500,9 +506,7 @@ TEST(Cli, StepsAboveTheStableLimitAndBadOutputsAreRefusedBeforeAnyWork) {
   // dt = 1/24 s (a frame, as a technical director reads "frame-rate steps")
   // on the seed beam: refused at once, with the limit and the safe value;
   // --force-dt runs it (and it blows up: exit 1)
-  std::string rods = cantilever(8, 1.0, 0.1);
-  rods = rods.substr(rods.find("[[rods]]"));
-  rods = rods.substr(0, rods.find("damping"));
+  const std::string rods = undamped_beam(8);
   const std::string frame = write_scene("frame.toml", "[simulation]\ndt = 0.041666667\nduration = 1.0\n" + rods);
   const std::string out = path("frame.h5");
   fs::remove(out);
@@ -632,9 +636,7 @@ TEST(Cli, ValidityMonitorWarnsOrStops) {
   // an undamped beam forced to 1.2 x its stable step: the energy grows
   // without a source, the monitor says so at the first sample point past
   // 1 %, before the state turns non-finite (every step is a sample point here)
-  std::string rods = cantilever(8, 0.5, 0.005);
-  rods = rods.substr(rods.find("[[rods]]"));
-  rods = rods.substr(0, rods.find("damping"));
+  const std::string rods = undamped_beam(8);
   const std::string sim = "[simulation]\ndt = 0.00035\nduration = 0.5\noutput_interval = 0.00035\n";
   const std::string out = path("valid.h5");
   fs::remove(out);
