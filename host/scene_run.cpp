@@ -211,7 +211,20 @@ double frame_aligned_dt(double dt, double interval) {
 template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b) {
   const StepChoice c = step_choice(s);
-  const StableDt sd = with_terms(c, [&]<Terms kT>() { return stable_dt<kT>(b); }, false);  // contact does not limit it
+  // contact does not limit it: the same Terms without contact (the ones the
+  // library instantiates stable_dt for; `false` alone leaves the contact
+  // instantiations referenced where the compiler does not fold it away)
+  const StableDt sd = with_terms(
+      c,
+      [&]<Terms kT>() {
+        constexpr Terms k = [] {
+          Terms t = kT;
+          t.colliders = t.rod_contact = false;
+          return t;
+        }();
+        return stable_dt<k>(b);
+      },
+      false);
   const bool finite = std::isfinite(sd.elastic) && sd.elastic > 0;
   if (s.sim.dt_auto && !finite)
     throw SceneError(s.source +
