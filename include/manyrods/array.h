@@ -37,8 +37,9 @@ class Array {
     for (std::size_t i = 0; i < size + 2 * kGuard; ++i) raw_.get()[i] = fill;
   }
   std::size_t size() const { return size_; }
-  T* data() { return raw_.get() + kGuard; }
-  const T* data() const { return raw_.get() + kGuard; }
+  // (null for an array never allocated: an offset from null is undefined)
+  T* data() { return raw_ ? raw_.get() + kGuard : nullptr; }
+  const T* data() const { return raw_ ? raw_.get() + kGuard : nullptr; }
   T& operator[](std::ptrdiff_t k) { return data()[k]; }
   const T& operator[](std::ptrdiff_t k) const { return data()[k]; }
   std::size_t bytes() const { return (size_ + 2 * kGuard) * sizeof(T); }
