@@ -128,8 +128,8 @@ class SceneRun {
     if (b_.state.steps % per_frame_ == 0 && !opt_.resume) write_frame(*w, scene_energies(b_, choice_));
     if (restart_ && !opt_.probes.empty()) restore_probes(*restart_);
     else sample_probes(true);
-    monitor_.emplace(s_, b_, scene_energies(b_, choice_), dissipated_,
-                     restart_ ? restart_->validity_energy0 : NAN, restart_ ? restart_->validity_scale : NAN);
+    monitor_.emplace(s_, b_, scene_energies(b_, choice_), restart_ ? restart_->validity_energy0 : NAN,
+                     restart_ ? restart_->validity_scale : NAN);
     loop(w);
     res_.validity = monitor_->summary(b_.rod_count());
     const h5::Checkpoint last = checkpoint(*w);
@@ -366,7 +366,7 @@ class SceneRun {
   // with [simulation] validity.on_violation = "error".
   void check_validity(const Energies& e) {
     std::vector<std::string> news;
-    monitor_->check(b_, e, dissipated_, b_.state.time, news);
+    monitor_->check(b_, e, b_.state.time, news);
     for (const std::string& m : news) {
       if (s_.sim.validity.error) throw ValidityError(s_.source + ": " + m);
       if (opt_.on_warning) opt_.on_warning(m);

@@ -29,25 +29,24 @@ namespace manyrods::scene {
 template <class T>
 class ValidityMonitor {
  public:
-  // e0, dissipated0: the energies and ∫ 2 D_v dt where the run starts; a
-  // continued run passes the reference it had (reference(), kept in the
-  // checkpoint), so that it judges as the uninterrupted run does
-  ValidityMonitor(const Scene& s, const RodBatch<T>& b, const Energies& e0, double dissipated0,
-                  double energy0 = NAN, double scale = NAN)
+  // e0: the energies where the run starts; a continued run passes the
+  // reference it had (energy0(), scale(), kept in the checkpoint), so that
+  // it judges as the uninterrupted run does
+  ValidityMonitor(const Scene& s, const RodBatch<T>& b, const Energies& e0, double energy0 = NAN,
+                  double scale = NAN)
       : s_(s), lim_(s.sim.validity) {
-    e0_ = std::isnan(energy0) ? budget(e0, dissipated0) : energy0;
+    e0_ = std::isnan(energy0) ? budget(e0) : energy0;
     scale_ = std::isnan(scale) ? e0.kinetic + e0.elastic : scale;
     source_ = !b.driven.empty();
     for (const RodGroup& g : s.groups)
       if (g.tip_force[0] != 0 || g.tip_force[1] != 0 || g.tip_force[2] != 0) source_ = true;
     for (const Collider& c : s.contact.colliders)
       if (c.motion) source_ = true;
-    for (Kind& k : kinds_) k = Kind{};
   }
 
-  // Checks the state at time t (energies e, ∫ 2 D_v dt so far); messages of
-  // new kinds of violation are appended to `out`.
-  void check(const RodBatch<T>& b, const Energies& e, double dissipated, double t, std::vector<std::string>& out) {
+  // Checks the state at time t (energies e); messages of new kinds of
+  // violation are appended to `out`.
+  void check(const RodBatch<T>& b, const Energies& e, double t, std::vector<std::string>& out) {
     for (int r = 0; r < b.rod_count(); ++r) {
       const StrainPeak p = strain_peak(b, r, s_.groups[s_.rod_group[r]].width);
       if (!(p.value <= lim_.strain))
@@ -59,15 +58,13 @@ class ValidityMonitor {
         note(kStretch, r, p.stretch, t, "element " + std::to_string(p.stretch_element), out, b);
     }
     scale_ = std::max(scale_, e.kinetic + e.elastic);
-    const double gain = budget(e, dissipated) - e0_;
+    const double gain = budget(e) - e0_;
     if (!source_ && scale_ > 0 && !(gain <= lim_.energy_growth * scale_))
       note(kEnergy, -1, gain / scale_, t, "", out, b);
   }
 
   double energy0() const { return e0_; }
   double scale() const { return scale_; }
-
-  bool any() const { return kinds_[0].count + kinds_[1].count + kinds_[2].count > 0; }
 
   // One line per kind seen, e.g. "strain above 0.05 in 12 of 64 rods, worst
   // 0.31 (rod 3 'hair[3]' joint 5 at t = 0.4 s)".
@@ -100,7 +97,7 @@ class ValidityMonitor {
     std::vector<char> seen;  // [rods]
   };
 
-  static double budget(const Energies& e, double) { return e.total() - e.contact_work; }
+  static double budget(const Energies& e) { return e.total() - e.contact_work; }
 
   void note(int kind, int rod, double value, double t, const std::string& where, std::vector<std::string>& out,
             const RodBatch<T>& b) {
