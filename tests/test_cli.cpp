@@ -757,6 +757,41 @@ TEST(Cli, DamagedFilesNeverCrashHangOrMisleadTheTool) {
   EXPECT_GT(errors, kCopies / 4);  // most damage is caught (the rest hit bytes never read)
 }
 
+TEST(Cli, CommittedDamagedFilesGiveClearErrors) {
+  // The committed corpus tests/data/damaged (tools/make-damage-corpus): an
+  // output and 48 copies with 1-16 bytes replaced, some truncated. The
+  // undamaged file must restart (else the corpus is stale: remake it); each
+  // copy given to `run --restart` and `export` ends with exit 0 or a clear
+  // error (2) naming the file, never a signal, a hang or exit 1, and a
+  // restart that succeeds is the undamaged file's run bit for bit.
+  const std::string dir = std::string(MANYRODS_TEST_DATA) + "/damaged";
+  Result ref = cli("run --restart " + dir + "/undamaged.h5 -o " + path("cref.h5") + " --duration 0.3 --no-progress");
+  ASSERT_EQ(ref.status, 0) << "stale corpus, run tools/make-damage-corpus: " << ref.err;
+  const std::string hash = ref.err.substr(ref.err.find("state hash ") + 11, 16);
+  int errors = 0, files = 0;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
+    const std::string f = e.path().string();
+    if (e.path().filename().string().rfind("damaged-", 0) != 0) continue;
+    ++files;
+    for (const bool restart : {true, false}) {
+      const Result r = restart ? cli("run --restart " + f + " -o " + path("cout.h5") + " --duration 0.3 --no-progress", 20)
+                               : cli("export " + f + " --usd " + path("cout.usda"), 20);
+      SCOPED_TRACE(f + (restart ? " (restart): " : " (export): ") + r.err);
+      ASSERT_TRUE(r.status == 0 || r.status == 2) << "exit " << r.status << (r.status == 124 ? " (hang)" : "");
+      if (r.status == 2) {
+        ++errors;
+        EXPECT_EQ(r.err.find("manyrods"), 0u);
+        EXPECT_NE(r.err.find(f), std::string::npos);
+      } else if (restart) {
+        EXPECT_NE(r.err.find("state hash " + hash), std::string::npos);
+      }
+    }
+  }
+  std::printf("committed damaged files: %d clear errors in %d commands on %d files\n", errors, 2 * files, files);
+  EXPECT_EQ(files, 48);
+  EXPECT_GT(errors, files / 2);
+}
+
 TEST(Cli, SweepRestartIsIdenticalToAnUninterruptedSweep) {
   // A sweep stopped at --until and continued with run --restart writes the
   // same summary (CSV text and /sweep/summary, bit for bit) and the same
