@@ -81,9 +81,30 @@ void validate_rod(const RodSpec& s) {
   }
   if (s.root_frame) validate_frame(*s.root_frame, "root_frame");
   if (s.tip_frame) validate_frame(*s.tip_frame, "tip_frame");
+  if (s.clamped_root && s.pinned_root) fail("root: clamped_root and pinned_root both set (choose one)");
+  if (s.clamped_tip && s.pinned_tip) fail("tip: clamped_tip and pinned_tip both set (choose one)");
   if (s.tip_frame && !s.clamped_tip) fail("tip_frame: given for a tip that is not clamped (set clamped_tip)");
-  if (s.root_motion && !s.clamped_root) fail("root_motion: a driven root must be clamped (set clamped_root)");
+  if (s.root_motion && !s.clamped_root && !s.pinned_root)
+    fail("root_motion: a driven root must be held (set clamped_root or pinned_root)");
+  if (s.tip_motion && !s.clamped_tip && !s.pinned_tip)
+    fail("tip_motion: a driven tip must be held (set clamped_tip or pinned_tip)");
   if (s.root_motion) s.root_motion->validate();
+  if (s.tip_motion) s.tip_motion->validate();
+  std::vector<char> held(std::size_t(n + 1), 0);
+  held[0] = s.clamped_root || s.pinned_root;
+  held[n] = s.clamped_tip || s.pinned_tip;
+  for (std::size_t i = 0; i < s.holds.size(); ++i) {
+    const NodeHold& h = s.holds[i];
+    const std::string at = "holds[" + std::to_string(i) + "]: node " + std::to_string(h.node);
+    if (h.node == 0) fail(at + " is the root (hold it with clamped_root or pinned_root)");
+    if (h.node == n) fail(at + " is the tip (hold it with clamped_tip or pinned_tip)");
+    if (h.node < 0 || h.node > n)
+      fail(at + " does not exist (the rod has nodes 0 … " + std::to_string(n) + ")");
+    if (held[h.node]) fail(at + " is held twice (one constraint per node)");
+    held[h.node] = 1;
+    if (h.motion) h.motion->validate();
+  }
+  validate_drag(s.drag);
   if (!std::isfinite(s.shear_stretch_scale) || !(s.shear_stretch_scale > 0))
     fail("shear_stretch_scale = " + std::to_string(s.shear_stretch_scale) + ": must be a finite number > 0");
   auto check_vectors = [](const std::vector<Vec3>& v, std::size_t need, const char* name) {
@@ -381,8 +402,21 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
   info.elements = s.elements();
   info.clamped_root = s.clamped_root;
   info.clamped_tip = s.clamped_tip;
+  info.pinned_root = s.pinned_root;
+  info.pinned_tip = s.pinned_tip;
+  info.holds = int(s.holds.size());
   info.stiff_implicit = s.stiff_implicit;
-  info.driven = s.root_motion != nullptr;
+  info.drag = s.drag;
+  int held = int(s.holds.size()) + (s.clamped_root || s.pinned_root) + (s.clamped_tip || s.pinned_tip);
+  int driven = (s.root_motion != nullptr) + (s.tip_motion != nullptr);
+  for (const NodeHold& h : s.holds) driven += h.motion != nullptr;
+  info.driven = driven > 0;
+  // the implicit solve runs relative to the reference hold's rigid motion (a
+  // driven root; else a stiff rod's one driven hold): every other held
+  // unknown must then have its prescribed velocity kept, which the scalar
+  // kernel's delta form does exactly and the direct form does not
+  const bool reference = s.root_motion != nullptr || (s.stiff_implicit && driven == 1 && held == 1);
+  info.prescribed = driven > 0 && held > (reference ? 1 : 0);
   try {
     validate_rod(s);
     info.elastic = resolve_material(s.material);
@@ -390,9 +424,12 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
     info.contact_radius = contact_radius(s.section);
     info.tau = resolve_damping(s.damping, info.elastic);
     info.damped = info.tau.shear > 0 || info.tau.extension > 0;
-    if (s.clamped_tip && s.root_motion && (s.stiff_implicit || info.damped))
-      fail("clamped_tip: a clamped tip with a driven root is not supported on a stiff or damped rod "
-           "(the implicit solve runs relative to the root's rigid motion, which would carry the tip along)");
+    if (s.stiff_implicit && info.prescribed)
+      fail(std::string("holds: a stiff rod's holds must all be static, or be a single driven hold at the root "
+                       "or the tip (its implicit solve runs relative to that one motion); this rod has ") +
+           std::to_string(held) + " held nodes, " + std::to_string(driven) + " of them driven");
+    if (s.stiff_implicit && driven == 1 && held == 1 && s.holds.size() == 1)
+      fail("holds: a stiff rod's single driven hold must be at the root or the tip, not an interior node");
   } catch (const InputError& e) {
     throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
   }
@@ -438,20 +475,52 @@ std::int64_t lay_out(const std::vector<RodSpec>& specs, std::vector<RodInfo>& ro
   return segments.empty() ? kGuard : slots;
 }
 
-// Driven roots: one entry per rod, one motion per distinct pointer; each
+// Driven holds: one entry per held node on a motion (per rod: root,
+// interior nodes in order, tip), one motion per distinct pointer; each
 // segment's range of them.
 template <class T>
 void collect_driven(RodBatch<T>& b, const std::vector<RodSpec>& specs) {
   std::unordered_map<const RootMotion*, int> motion_index;
+  auto motion = [&](const std::shared_ptr<const RootMotion>& m) {
+    const auto [it, added] = motion_index.try_emplace(m.get(), int(b.motions.size()));
+    if (added) b.motions.push_back(m);
+    return it->second;
+  };
   for (std::size_t r = 0; r < specs.size(); ++r) {
     const RodSpec& s = specs[r];
-    if (!s.root_motion) continue;
-    const auto [it, added] = motion_index.try_emplace(s.root_motion.get(), int(b.motions.size()));
-    if (added) b.motions.push_back(s.root_motion);
-    b.driven.push_back({int(r), it->second, s.nodes[0], s.root_frame ? *s.root_frame : s.frames[0]});
+    const RodInfo& info = b.rods[r];
+    const int n = s.elements(), o = info.offset;
+    const std::size_t first = b.driven.size();
+    if (s.root_motion) {
+      DrivenHold d{int(r), motion(s.root_motion), o + 1, {o, -1}, s.nodes[0]};
+      d.q0[0] = s.root_frame ? *s.root_frame : s.frames[0];
+      b.driven.push_back(d);
+    }
+    std::vector<NodeHold> holds = s.holds;
+    std::sort(holds.begin(), holds.end(), [](const NodeHold& x, const NodeHold& y) { return x.node < y.node; });
+    for (const NodeHold& h : holds) {
+      if (!h.motion) continue;
+      DrivenHold d{int(r), motion(h.motion), o + 1 + h.node, {-1, -1}, s.nodes[h.node]};
+      if (h.kind == HoldKind::clamped) {
+        d.frame[0] = o + h.node;  // elements node − 1 and node
+        d.frame[1] = o + 1 + h.node;
+        d.q0[0] = s.frames[h.node - 1];
+        d.q0[1] = s.frames[h.node];
+      }
+      b.driven.push_back(d);
+    }
+    if (s.tip_motion) {
+      DrivenHold d{int(r), motion(s.tip_motion), o + 1 + n, {o + n + 1, -1}, s.nodes[n]};
+      d.q0[0] = s.tip_frame ? *s.tip_frame : s.frames[n - 1];
+      b.driven.push_back(d);
+    }
+    // the reference of the implicit solve (RodInfo::prescribed): a driven
+    // root, else the single driven hold of a stiff rod, at its root or tip
+    // (resolve_rod refuses the other cases)
+    if (b.driven.size() > first && (s.root_motion || s.stiff_implicit)) b.driven[first].reference = true;
   }
   for (Segment& seg : b.segments) {
-    auto by_rod = [](const DrivenRoot& d, int rod) { return d.rod < rod; };
+    auto by_rod = [](const DrivenHold& d, int rod) { return d.rod < rod; };
     seg.driven_begin = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_begin, by_rod) - b.driven.begin());
     seg.driven_end = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_end, by_rod) - b.driven.begin());
   }
@@ -470,7 +539,7 @@ struct RodGeometry {
   }
 };
 
-// Nodes: lumped masses (a clamped root or tip has no inverse mass), positions and
+// Nodes: lumped masses (a held node has no inverse mass), positions and
 // velocities, and the still root ghost node.
 template <class T>
 void fill_nodes(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const RodGeometry& g) {
@@ -482,7 +551,8 @@ void fill_nodes(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const Rod
     if (j > 0) mass += 0.5 * rho * area * g.length[j - 1];
     if (j < n) mass += 0.5 * rho * area * g.length[j];
     b.model.node_mass[k] = T(mass);
-    const bool held = (j == 0 && s.clamped_root) || (j == n && s.clamped_tip);
+    bool held = (j == 0 && (s.clamped_root || s.pinned_root)) || (j == n && (s.clamped_tip || s.pinned_tip));
+    for (const NodeHold& h : s.holds) held = held || h.node == j;
     b.model.node_inv_mass[k] = held ? T(0) : T(1 / mass);
     for (int d = 0; d < 3; ++d) {
       b.state.node_x[d][k] = T(s.nodes[j][d]);
@@ -519,6 +589,14 @@ void fill_elements(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const 
     }
     for (int i = 0; i < 9; ++i) b.state.elem_Q[i][k] = T(s.frames[e][i]);
   }
+  // a clamped interior node holds the frames of the elements on either side
+  for (const NodeHold& h : s.holds)
+    if (h.kind == HoldKind::clamped)
+      for (const int k : {o + h.node, o + 1 + h.node})
+        for (int d = 0; d < 3; ++d) {
+          b.model.elem_inv_inertia[d][k] = T(0);
+          b.state.elem_w[d][k] = T(0);
+        }
   const Mat3 root = s.root_frame ? *s.root_frame : s.frames[0];
   const Mat3 tip = s.tip_frame ? *s.tip_frame : s.frames[n - 1];
   for (int i = 0; i < 9; ++i) {

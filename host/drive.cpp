@@ -109,6 +109,27 @@ Pose KeyframedMotion::at(double t) const {
   return about_pivot(r, d, pivot);
 }
 
+void RampMotion::validate() const {
+  auto bad = [](const std::string& what) { throw InputError("motion: " + what); };
+  for (double v : translation)
+    if (!std::isfinite(v)) bad("translation is not finite");
+  for (double v : pivot)
+    if (!std::isfinite(v)) bad("pivot is not finite");
+  if (!std::isfinite(rotation)) bad("rotation is not finite");
+  if (rotation != 0 && !(to_eigen(axis).norm() > 0 && std::isfinite(to_eigen(axis).norm())))
+    bad("axis must be a finite non-zero vector when rotation is not 0");
+  if (!std::isfinite(start_time)) bad("start_time is not finite");
+  if (!std::isfinite(duration) || !(duration > 0)) bad("duration must be a finite number > 0");
+}
+
+Pose RampMotion::at(double t) const {
+  double s = std::clamp((t - start_time) / duration, 0.0, 1.0);
+  if (smooth) s = s * s * (3 - 2 * s);
+  const EM3 r = rotation != 0 ? Eigen::AngleAxisd(rotation * s, to_eigen(axis).normalized()).toRotationMatrix()
+                              : EM3::Identity();
+  return about_pivot(r, s * to_eigen(translation), pivot);
+}
+
 RootStep root_step(const RootMotion& motion, double t, double h) {
   RootStep s{motion.at(t), motion.at(t + h), {0, 0, 0}};
   EM3 r0, r1;

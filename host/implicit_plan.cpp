@@ -14,12 +14,15 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
   for (int i = seg.rod_begin; i < seg.rod_end; ++i)
     if (needs_implicit_solve(rods[i], kelvin_voigt)) plan.rods.push_back(i);
   const auto begin = plan.rods.begin() + first_rod;
+  // rods with prescribed velocities (RodInfo::prescribed) go last, one per
+  // group: the scalar kernel's delta form keeps them
+  const auto alone = std::stable_partition(begin, plan.rods.end(), [&](int x) { return !rods[x].prescribed; });
   if (lanes > 1)
-    std::sort(begin, plan.rods.end(), [&](int x, int y) {
+    std::sort(begin, alone, [&](int x, int y) {
       const int ex = rods[x].elements, ey = rods[y].elements;
       return ex != ey ? ex > ey : x < y;
     });
-  const int n = int(plan.rods.size());
+  const int n = int(alone - plan.rods.begin()), total = int(plan.rods.size());
   const int half_lanes = lanes >= 4 ? lanes / 2 : 1;
   for (int a = first_rod; a < n;) {
     const int cells = rods[plan.rods[a]].elements + 1;
@@ -29,6 +32,7 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
     plan.groups.push_back({a, count, !fits});
     a += count;
   }
+  for (int a = n; a < total; ++a) plan.groups.push_back({a, 1, false});
   return {first_group, int(plan.groups.size())};
 }
 

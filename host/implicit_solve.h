@@ -28,33 +28,38 @@ namespace manyrods {
 
 namespace detail {
 
-// Driven roots: the solve runs on the velocities relative to the rigid motion
-// of the root (kernels/viscous_implicit.h rigid_shift). sign −1 keeps the
-// root's (v₀, ω_g) in `saved` and subtracts its rigid field; +1 adds it back.
-// Ω = Q_gᵀ ω_g and x₀ do not change in the solve.
+// Driven holds: the solve runs on the velocities relative to the rigid
+// motion of the rod's reference hold (DrivenHold::reference: a driven root,
+// or a stiff rod's one driven hold at its tip; kernels/viscous_implicit.h
+// rigid_shift). sign −1 keeps the hold's (v, ω_g) in `saved` and subtracts
+// its rigid field; +1 adds it back. Ω = Q_gᵀ ω_g and the hold's x do not
+// change in the solve. Other held unknowns keep their (shifted) prescribed
+// velocities: the scalar kernel's delta form solves their rods
+// (RodInfo::prescribed).
 template <class T>
 void shift_driven_roots(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
   const StateView<T> s = b.state_view();
   for (int i = r.driven_begin; i < r.driven_end; ++i) {
-    const RodInfo& rod = b.rods[b.driven[i].rod];
-    if (!needs_implicit_solve(rod, kelvin_voigt)) continue;
+    const DrivenHold& d = b.driven[i];
+    const RodInfo& rod = b.rods[d.rod];
+    if (!d.reference || !needs_implicit_solve(rod, kelvin_voigt)) continue;
     T* saved = b.scratch.driven_root_velocity.data() + 6 * std::size_t(i);
-    const int k = rod.offset + 1;
+    const int k = d.node, g = d.frame[0];
     vec3<T> root[2];
     if (sign < T(0)) {
       root[0] = load3(s.node_v, k);
-      root[1] = load3(s.elem_w, k - 1);
+      root[1] = load3(s.elem_w, g);
       const T keep[6] = {root[0].x, root[0].y, root[0].z, root[1].x, root[1].y, root[1].z};
       for (int c = 0; c < 6; ++c) saved[c] = keep[c];
     } else {
       root[0] = {saved[0], saved[1], saved[2]};
       root[1] = {saved[3], saved[4], saved[5]};
     }
-    const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, k - 1), root[1]);
-    rigid_shift(k, rod.elements + 1, sign, root[0], omega, load3(s.node_x, k), s);
+    const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, g), root[1]);
+    rigid_shift(rod.offset + 1, rod.elements + 1, sign, root[0], omega, load3(s.node_x, k), s);
     const vec3<T> zero{T(0), T(0), T(0)};
     store3(s.node_v, k, sign > T(0) ? root[0] : zero);
-    store3(s.elem_w, k - 1, sign > T(0) ? root[1] : zero);
+    store3(s.elem_w, g, sign > T(0) ? root[1] : zero);
   }
 }
 

@@ -4,11 +4,14 @@
 // schemes in docs/model.md "Time stepping".
 //
 // Position Verlet (Gazzola et al. 2018; the scheme PyElastica uses), h = dt:
-//   0. (driven roots) root put on its motion for [t, t + h]   apply_root_motion
+//   0. (driven holds) roots, tips, nodes put on their motion
+//      for [t, t + h]                                          apply_motions
 //   1. drift ½h:  x += ½h v,  Q ← exp(−½h ω) Q                drift
 //   2. strains and total resultants at (x, Q)_{n+½} with the
 //      rates from (v, ω)_n                                     compute_resultants
 //   3. kick h:    v += h m⁻¹ F,  ω += h J⁻¹ C                  segment_kick
+//      (a fluid) the kick redone with drag, buoyancy and wind
+//      as an exact flow (v saved before the kick)             fluid_save_stage, fluid_stage
 //   4. (M + hD) u⁺ = M u for damped and stiff rods             viscous_update
 //   4a. (contact Terms) [broad phase,] contact impulses          contact_stage
 //   5. drift ½h                                                drift
@@ -28,6 +31,7 @@
 
 #include "host/contact_stage.h"
 #include "host/diagnostics.h"
+#include "host/fluid_stage.h"
 #include "host/implicit_solve.h"
 #include "host/root_motion.h"
 #include "host/schedule.h"
@@ -87,10 +91,14 @@ void verlet_before_contact(RodBatch<T>& b, T dt, double t, bool solve, const Exe
   constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
   constexpr Terms kSolve = detail::solve_terms<kT, kV>();
   if (r.driven_end > r.driven_begin)
-    timed(e, thread, Stage::root_motion, [&] { apply_root_motion(b, r, t, double(dt)); });
+    timed(e, thread, Stage::root_motion, [&] { apply_motions(b, r, t, double(dt)); });
   timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
   timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
+  const bool fluid = b.any_fluid();
+  if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_save_stage(b, e, r); });
   timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
+  if (fluid)  // (the kick's time: the middle of the step)
+    timed(e, thread, Stage::fluid, [&] { fluid_stage(b, dt, t + 0.5 * double(dt), kT.gravity, e, r); });
   if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
 }
 template <class T>
@@ -197,7 +205,7 @@ struct Pefrl {
 //     order > 2 avoids negative sub-steps, Sheng 1989, Suzuki 1991), so for
 //     strongly damped rods Position Verlet is the better choice.
 //
-// Driven roots follow their motion drift by drift: each drift of length
+// Driven holds follow their motion drift by drift: each drift of length
 // c·dt starts the root at its pose of that stage's time and lands on the
 // next stage's (so the kicks see the root where it is at their time and
 // PEFRL keeps its order; tests/test_drive.cpp).
@@ -213,6 +221,10 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex) {
     throw std::invalid_argument(
         "step_pefrl: the batch has stiff rods (RodSpec::stiff_implicit), which only Position Verlet "
         "steps stably; use step/step_n/advance with Integrator::position_verlet");
+  if (b.any_fluid())
+    throw std::invalid_argument(
+        "step_pefrl: the batch is in a fluid (set_fluid), whose drag PEFRL's backward kicks would amplify; "
+        "use step/step_n/advance with Integrator::position_verlet");
   const T xi = T(Pefrl::xi) * dt, chi = T(Pefrl::chi) * dt;
   const T mid = T(1 - 2 * (Pefrl::chi + Pefrl::xi)) * dt;
   const T outer = T(0.5 - Pefrl::lambda) * dt, inner = T(Pefrl::lambda) * dt;
@@ -230,7 +242,7 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex) {
     if (driven)
       timed(ex, 0, Stage::root_motion, [&] {
         for (const Segment& r : b.segments)
-          if (r.driven_end > r.driven_begin) apply_root_motion(b, r, t, c * double(dt));
+          if (r.driven_end > r.driven_begin) apply_motions(b, r, t, c * double(dt));
       });
     timed(ex, 0, Stage::drift, [&] { drift(b, h, ex, all); });
     t += c * double(dt);

@@ -9,6 +9,7 @@ const char* stage_name(Stage s) {
     case Stage::drift: return "drift";
     case Stage::resultants: return "resultants";
     case Stage::kick: return "kick";
+    case Stage::fluid: return "fluid";
     case Stage::implicit_solve: return "implicit_solve";
     case Stage::broad_phase: return "broad_phase";
     case Stage::contact: return "contact";

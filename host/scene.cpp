@@ -78,6 +78,8 @@ struct Table {
   std::string path;  // "rods.0.material"
 
   Table(const Ctx& c, const toml::table& tbl, std::string p, std::initializer_list<const char*> allowed)
+      : Table(c, tbl, std::move(p), std::vector<const char*>(allowed)) {}
+  Table(const Ctx& c, const toml::table& tbl, std::string p, const std::vector<const char*>& allowed)
       : ctx(c), t(tbl), path(std::move(p)) {
     for (auto&& [k, v] : t) {
       bool ok = false;
@@ -177,6 +179,9 @@ struct Table {
     return v;
   }
   Table sub(const char* k, std::initializer_list<const char*> allowed) const {
+    return sub(k, std::vector<const char*>(allowed));
+  }
+  Table sub(const char* k, const std::vector<const char*>& allowed) const {
     const toml::node* n = get(k);
     if (!n) missing(k);
     if (!n->is_table()) fail(k, std::string("must be a table, got ") + type_name(*n));
@@ -229,25 +234,55 @@ Simulation parse_simulation(const Table& root) {
 
 // ---- [[rods]] ----------------------------------------------------------------
 
-// root = "clamped" | "free" | a table describing a driven root (a clamped
-// root following a rigid motion, include/manyrods/drive.h; angles in degrees).
+// root, tip = "clamped" | "pinned" | "free" | a table { kind = "clamped" |
+// "pinned", motion = …, the motion's keys } (a held end, static or on a
+// rigid motion, include/manyrods/drive.h; angles in degrees); interior nodes
+// in [[rods.constraints]] tables { node = k, kind, motion, … }.
 struct Root {
   bool clamped = true;
+  bool pinned = false;
   std::shared_ptr<const RootMotion> motion;
 };
 
-// A rigid motion table (motion = "oscillate" | "keyframes"; angles in
-// degrees), as a driven root's `root` table and a collider's `motion`.
-std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key) {
+// `base` plus the keys a hold's table has besides its motion's.
+std::vector<const char*> with_keys(std::initializer_list<const char*> base, const std::vector<const char*>& extra) {
+  std::vector<const char*> v(base);
+  v.insert(v.end(), extra.begin(), extra.end());
+  return v;
+}
+
+// A rigid motion table (motion = "oscillate" | "keyframes" | "ramp"; angles
+// in degrees), as a driven hold's table and a collider's `motion`. `extra`:
+// the other keys the table may have (a hold's kind, node).
+std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key,
+                                               const std::vector<const char*>& extra = {}) {
   constexpr double deg = std::numbers::pi / 180;
   const toml::node* n = g.get(key);
   const toml::table& t = *n->as_table();
   const std::string kind = t.contains("motion") && t.get("motion")->is_string()
                                ? t.get("motion")->as_string()->get()
                                : std::string();
+  if (kind == "ramp") {
+    const Table m = g.sub(key, with_keys({"motion", "translation", "rotation_axis", "rotation", "start_time",
+                                          "duration", "profile", "pivot"},
+                                         extra));
+    auto r = std::make_shared<RampMotion>();
+    r->translation = m.vec3("translation", {0, 0, 0});
+    r->rotation = m.number("rotation", 0) * deg;
+    if (m.has("rotation_axis"))
+      r->axis = m.nonzero_vec3("rotation_axis", {0, 0, 1});
+    else if (r->rotation != 0)
+      m.missing("rotation_axis", "needed when rotation is not 0");
+    r->start_time = m.number("start_time", 0);
+    r->duration = m.positive("duration");
+    r->smooth = m.has("profile") && m.string("profile", {"linear", "smooth"}) == "smooth";
+    r->pivot = m.vec3("pivot", {0, 0, 0});
+    return r;
+  }
   if (kind == "oscillate") {
-    const Table m = g.sub(key, {"motion", "translation_amplitude", "rotation_axis", "rotation_amplitude",
-                                "frequency", "phase", "ramp_time", "pivot"});
+    const Table m = g.sub(key, with_keys({"motion", "translation_amplitude", "rotation_axis", "rotation_amplitude",
+                                          "frequency", "phase", "ramp_time", "pivot"},
+                                         extra));
     auto o = std::make_shared<OscillatingMotion>();
     o->translation_amplitude = m.vec3("translation_amplitude", {0, 0, 0});
     o->rotation_amplitude = m.number("rotation_amplitude", 0) * deg;
@@ -262,7 +297,7 @@ std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key) 
     return o;
   }
   if (kind == "keyframes") {
-    const Table m = g.sub(key, {"motion", "times", "translations", "rotations", "pivot"});
+    const Table m = g.sub(key, with_keys({"motion", "times", "translations", "rotations", "pivot"}, extra));
     auto k = std::make_shared<KeyframedMotion>();
     auto list = [&](const char* lk) -> const toml::array& {
       const toml::node* a = m.get(lk);
@@ -306,25 +341,122 @@ std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key) 
     return k;  // checked above, entry by entry with its line (KeyframedMotion::validate's checks)
   }
   const toml::node* mk = t.get("motion");
-  if (!mk) g.ctx.fail(*n, g.key(std::string(key) + ".motion"), "missing: a motion needs motion = \"oscillate\" or \"keyframes\"");
+  if (!mk)
+    g.ctx.fail(*n, g.key(std::string(key) + ".motion"),
+               "missing: a motion needs motion = \"oscillate\", \"keyframes\" or \"ramp\"");
   g.ctx.fail(*mk, g.key(std::string(key) + ".motion"),
-             mk->is_string() ? "\"" + kind + "\" is not one of \"oscillate\", \"keyframes\""
+             mk->is_string() ? "\"" + kind + "\" is not one of \"oscillate\", \"keyframes\", \"ramp\""
                              : std::string("must be a string, got ") + type_name(*mk));
 }
 
-Root parse_root(const Table& g) {
+// A held end or node: `key` is "root" or "tip" (a string or a table), or
+// an entry of [[rods.constraints]] (a table; `extra` holds its "node").
+// `dflt`: what an absent key means.
+Root parse_hold_table(const Table& g, const char* key, const std::vector<const char*>& extra) {
   Root r;
-  if (!g.has("root")) return r;
-  const toml::node* n = g.get("root");
+  const toml::table& t = *g.get(key)->as_table();
+  std::vector<const char*> keys = extra;
+  keys.push_back("kind");
+  if (t.contains("kind")) {
+    const Table k(g.ctx, t, g.key(key), with_keys({"kind", "motion", "translation_amplitude", "rotation_axis",
+                                                   "rotation_amplitude", "frequency", "phase", "ramp_time",
+                                                   "pivot", "times", "translations", "rotations", "translation",
+                                                   "rotation", "start_time", "duration", "profile"},
+                                                  extra));
+    const std::string kind = k.string("kind", {"clamped", "pinned"});
+    r.clamped = kind == "clamped";
+    r.pinned = kind == "pinned";
+  }
+  bool motion_keys = t.contains("motion");
+  for (auto&& [k, v] : t) {
+    bool hold_key = false;
+    for (const char* a : keys) hold_key = hold_key || k.str() == a;
+    motion_keys = motion_keys || !hold_key;
+  }
+  if (motion_keys)
+    r.motion = parse_motion(g, key, keys);  // (names a missing `motion`)
+  else
+    (void)g.sub(key, keys);  // a static hold: only its kind (and node)
+  if (r.motion) {
+    try {
+      r.motion->validate();
+    } catch (const InputError& e) {
+      g.fail(key, e.what());
+    }
+  }
+  return r;
+}
+
+Root parse_end(const Table& g, const char* key, bool dflt_clamped) {
+  Root r;
+  r.clamped = dflt_clamped;
+  if (!g.has(key)) return r;
+  const toml::node* n = g.get(key);
   if (n->is_string()) {
-    r.clamped = g.string("root", {"clamped", "free"}) == "clamped";
+    const std::string v = g.string(key, {"clamped", "pinned", "free"});
+    r.clamped = v == "clamped";
+    r.pinned = v == "pinned";
     return r;
   }
   if (!n->is_table())
-    g.fail("root", std::string("must be \"clamped\", \"free\" or a table with motion = \"oscillate\" or "
-                               "\"keyframes\", got ") + type_name(*n));
-  r.motion = parse_motion(g, "root");
-  return r;
+    g.fail(key, std::string("must be \"clamped\", \"pinned\", \"free\" or a table { kind = \"clamped\" | "
+                            "\"pinned\", motion = \"oscillate\" | \"keyframes\" | \"ramp\", … }, got ") +
+                    type_name(*n));
+  return parse_hold_table(g, key, {});
+}
+
+// ---- [fluid] (include/manyrods/fluid.h) ------------------------------------------
+
+void parse_fluid(const Table& top, Scene& sc) {
+  bool drag = false;
+  for (const RodSpec& r : sc.rods) drag = drag || r.drag.any();
+  sc.has_fluid = drag || top.has("fluid");
+  if (!top.has("fluid")) {
+    for (std::size_t gi = 0; gi < sc.groups.size(); ++gi) {
+      const Drag& d = sc.rods[sc.groups[gi].first_rod].drag;
+      if (d.cd_normal > 0 || d.cd_tangential > 0)
+        throw SceneError(sc.source + ":" + std::to_string(sc.groups[gi].line) + ": rods." + std::to_string(gi) +
+                         ".drag: cd_normal and cd_tangential (quadratic drag) need a [fluid] table with density > 0");
+    }
+    return;
+  }
+  const Table f = top.sub("fluid", {"density", "velocity", "times", "velocities", "turbulence"});
+  Fluid& fl = sc.fluid;
+  fl.density = f.has("density") ? f.non_negative("density") : 0.0;
+  fl.velocity = f.vec3("velocity", {0, 0, 0});
+  if (f.has("times") != f.has("velocities"))
+    f.fail(f.has("times") ? "times" : "velocities", "give times and velocities together (a time table of the mean velocity)");
+  if (f.has("times")) {
+    if (f.has("velocity")) f.fail("velocity", "give either velocity or a time table (times, velocities), not both");
+    const toml::array* ta = f.get("times")->as_array();
+    const toml::array* va = f.get("velocities")->as_array();
+    if (!ta || ta->empty()) f.fail("times", "must be a non-empty array of times in seconds");
+    if (!va || va->size() != ta->size())
+      f.fail("velocities", "needs one [x, y, z] per time (" + std::to_string(ta->size()) + ")");
+    for (std::size_t i = 0; i < ta->size(); ++i) {
+      const std::string pth = f.key("times") + "." + std::to_string(i);
+      fl.times.push_back(f.as_number(*ta->get(i), pth));
+      if (i > 0 && !(fl.times[i] > fl.times[i - 1]))
+        f.ctx.fail(*ta->get(i), pth, "times must increase strictly (got " + num(fl.times[i]) + " after " +
+                                         num(fl.times[i - 1]) + ")");
+      fl.velocities.push_back(f.vec3_of(*va->get(i), f.key("velocities") + "." + std::to_string(i)));
+    }
+  }
+  if (f.has("turbulence")) {
+    const Table t = f.sub("turbulence", {"intensity", "length_scale", "time_scale", "modes", "seed"});
+    Turbulence& tu = fl.turbulence;
+    tu.intensity = t.non_negative("intensity");
+    tu.length_scale = t.positive("length_scale");
+    tu.time_scale = t.positive("time_scale");
+    tu.modes = t.has("modes") ? int(t.integer("modes", 1, 256)) : 16;
+    tu.seed = t.has("seed") ? std::uint64_t(t.integer("seed", 0, std::numeric_limits<std::int64_t>::max())) : 1;
+  }
+  for (std::size_t gi = 0; gi < sc.groups.size(); ++gi) {
+    const Drag& d = sc.rods[sc.groups[gi].first_rod].drag;
+    if ((d.cd_normal > 0 || d.cd_tangential > 0) && !(fl.density > 0))
+      f.fail(f.has("density") ? "density" : "velocity",
+             "rods." + std::to_string(gi) + ".drag has quadratic coefficients (cd_normal, cd_tangential), which need density > 0");
+  }
 }
 
 // ---- friction, [[colliders]], [contact] (docs/contact.md) ----------------------
@@ -755,7 +887,10 @@ struct Pending {
   int elements;
   Vec3 u0;
   bool curved, clamped, stiff = false;
-  bool clamped_tip = false;
+  bool clamped_tip = false, pinned_root = false, pinned_tip = false;
+  std::shared_ptr<const RootMotion> tip_motion;
+  std::vector<NodeHold> holds;  // [[rods.constraints]]
+  Drag drag;
   double scale;
   Section section;
   Material material;
@@ -787,23 +922,76 @@ void check_size(const std::string& source, std::int64_t slots, std::int64_t elem
                      num(double(pages) * double(page) / 1e9) + " GB of memory");
 }
 
-// The root (free, clamped or driven), the tip (free or clamped) and the tip
-// loads of a group.
+// The root and the tip (free, clamped, pinned, each possibly driven), the
+// interior constraints and the tip loads of a group.
 void parse_group_ends(const Table& g, Pending& p) {
-  const Root root = parse_root(g);
+  const Root root = parse_end(g, "root", true);
   p.clamped = root.clamped;
+  p.pinned_root = root.pinned;
   p.motion = root.motion;
-  if (g.has("tip")) p.clamped_tip = g.string("tip", {"clamped", "free"}) == "clamped";
+  const Root tip = parse_end(g, "tip", false);
+  p.clamped_tip = tip.clamped;
+  p.pinned_tip = tip.pinned;
+  p.tip_motion = tip.motion;
+  if (const toml::node* cn = g.get("constraints")) {
+    const toml::array* a = cn->as_array();
+    if (!a || !a->is_array_of_tables())
+      g.fail("constraints", "must be one or more [[rods.constraints]] tables { node = k, kind = \"clamped\" | \"pinned\", motion = … }");
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::table& ct = *a->get(i)->as_table();
+      const std::string path = g.key("constraints." + std::to_string(i));
+      // a one-entry wrapper, so that the hold's keys are read as "constraints.i.<key>"
+      toml::table wrap;
+      wrap.insert(std::to_string(i), ct);
+      const Table w(g.ctx, wrap, g.key("constraints"), {std::to_string(i).c_str()});
+      const std::string idx = std::to_string(i);
+      const Table c(g.ctx, ct, path, with_keys({"node", "kind"}, {"motion", "translation_amplitude", "rotation_axis",
+                                               "rotation_amplitude", "frequency", "phase", "ramp_time", "pivot",
+                                               "times", "translations", "rotations", "translation", "rotation",
+                                               "start_time", "duration", "profile"}));
+      NodeHold h;
+      h.node = int(c.integer("node", 0, std::numeric_limits<int>::max()));
+      if (h.node == 0) c.fail("node", "node 0 is the root: hold it with the group's root key");
+      if (h.node >= p.elements)
+        c.fail("node", h.node == p.elements ? "node " + std::to_string(h.node) + " is the tip: hold it with the group's tip key"
+                                            : "node " + std::to_string(h.node) + " does not exist (the rods have nodes 0 … " +
+                                                  std::to_string(p.elements) + ")");
+      for (const NodeHold& o : p.holds)
+        if (o.node == h.node) c.fail("node", "node " + std::to_string(h.node) + " has two constraints (one per node)");
+      if (!c.has("kind")) c.missing("kind", "\"clamped\" or \"pinned\"");
+      // the hold itself: kind and motion, read from the wrapper under its index
+      const Root r = parse_hold_table(w, idx.c_str(), {"node"});
+      h.kind = r.pinned ? HoldKind::pinned : HoldKind::clamped;
+      h.motion = r.motion;
+      p.holds.push_back(h);
+    }
+  }
   p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
-  if (p.clamped_tip && to_e(p.g.tip_force).norm() > 0)
-    g.fail("tip_force", "acts on the tip node, which tip = \"clamped\" holds fixed");
+  if ((p.clamped_tip || p.pinned_tip) && to_e(p.g.tip_force).norm() > 0)
+    g.fail("tip_force", std::string("acts on the tip node, which tip = \"") + (p.clamped_tip ? "clamped" : "pinned") +
+                            "\" holds fixed");
   if (g.has("initial_tip_force")) {
     if (!p.clamped)
       g.fail("initial_tip_force", "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
-    if (p.clamped_tip) g.fail("initial_tip_force", "needs tip = \"free\" (a clamped tip carries no tip load)");
+    if (p.clamped_tip || p.pinned_tip) g.fail("initial_tip_force", "needs tip = \"free\" (a held tip carries no tip load)");
+    if (!p.holds.empty()) g.fail("initial_tip_force", "needs a rod without [[rods.constraints]]");
     p.g.has_initial_tip_force = true;
     p.g.initial_tip_force = g.vec3("initial_tip_force");
   }
+}
+
+// A group's drag = { normal, tangential, cd_normal, cd_tangential, buoyancy }
+// (include/manyrods/fluid.h; acts in the scene's [fluid]).
+Drag parse_drag(const Table& g) {
+  Drag d;
+  if (!g.has("drag")) return d;
+  const Table t = g.sub("drag", {"normal", "tangential", "cd_normal", "cd_tangential", "buoyancy"});
+  d.normal = t.has("normal") ? t.non_negative("normal") : 0.0;
+  d.tangential = t.has("tangential") ? t.non_negative("tangential") : 0.0;
+  d.cd_normal = t.has("cd_normal") ? t.non_negative("cd_normal") : 0.0;
+  d.cd_tangential = t.has("cd_tangential") ? t.non_negative("cd_tangential") : 0.0;
+  d.buoyancy = t.boolean("buoyancy", true);
+  return d;
 }
 
 // One [[rods]] table, every key validated in the order of docs/scenes.md;
@@ -829,6 +1017,7 @@ Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const
   p.u0 = g.vec3("rest_curvature", {0, 0, 0});
   p.curved = to_e(p.u0).norm() > 0;
   parse_group_ends(g, p);
+  p.drag = parse_drag(g);
   p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
   p.stiff = g.boolean("stiff", false);
   if (g.has("friction")) {
@@ -872,8 +1061,13 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
     r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
     r.shear_stretch_scale = p.scale;
     r.clamped_root = p.clamped;
+    r.pinned_root = p.pinned_root;
     r.clamped_tip = p.clamped_tip;
+    r.pinned_tip = p.pinned_tip;
     r.root_motion = p.motion;
+    r.tip_motion = p.tip_motion;
+    r.holds = p.holds;
+    r.drag = p.drag;
     r.stiff_implicit = p.stiff;
     sc.rods.push_back(std::move(r));
     sc.rod_group.push_back(int(gi));
@@ -891,7 +1085,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   Scene sc;
   sc.source = source;
   sc.text = std::string(text);
-  const Table top(ctx, root, "", {"title", "simulation", "rods", "colliders", "contact"});
+  const Table top(ctx, root, "", {"title", "simulation", "rods", "colliders", "contact", "fluid"});
   if (top.has("title")) (void)top.text("title");
   if (!top.has("simulation")) throw SceneError(source + ": simulation: missing table [simulation]");
   sc.sim = parse_simulation(top);
@@ -909,7 +1103,8 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     const Table g(ctx, gt, "rods." + std::to_string(gi),
                   {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
                    "section", "material", "damping", "rest_curvature", "root", "tip", "tip_force",
-                   "initial_tip_force", "terms", "shear_stretch_scale", "stiff", "friction"});
+                   "initial_tip_force", "terms", "shear_stretch_scale", "stiff", "friction", "constraints",
+                   "drag"});
     Pending p = parse_group(g, gt, gi, sc.sim);
     slots += std::int64_t(p.g.count) * (p.elements + 2);
     elements += std::int64_t(p.g.count) * p.elements;
@@ -919,6 +1114,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   }
   for (std::size_t gi = 0; gi < pending.size(); ++gi) expand_group(sc, pending[gi], gi);
   parse_contact(ctx, top, sc);
+  parse_fluid(top, sc);
   for (std::size_t r = 0; r < sc.rods.size() && sc.has_contact; ++r) {
     const RodGroup& g = sc.groups[sc.rod_group[r]];
     sc.contact.rod_friction.push_back(g.friction);

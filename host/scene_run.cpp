@@ -126,6 +126,17 @@ void give_contact(const Scene& s, const StepChoice& choice, RodBatch<T>& b) {
   }
 }
 
+// The scene's fluid (drag, buoyancy, wind), when it has one.
+template <class T>
+void give_fluid(const Scene& s, RodBatch<T>& b) {
+  if (!s.has_fluid) return;
+  try {
+    set_fluid(b, s.fluid);
+  } catch (const InputError& e) {
+    throw SceneError(s.source + ": " + e.what());
+  }
+}
+
 template <class T>
 RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
   check_batch_size(s);
@@ -158,6 +169,7 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
       b.set_node_force(r, n, g.tip_force);
     }
   }
+  give_fluid(s, b);
   if (!initial_state) {
     give_contact(s, choice, b);
     return b;

@@ -110,7 +110,8 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
     for (int e = 0; e < n; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
     for (int j = 0; j <= n; ++j)
       if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
-    for (int e = 0; e < n; ++e) d.elem_slots.push_back(b.elem_index(r, e));
+    for (int e = 0; e < n; ++e)  // (a clamped interior node holds the frames on either side)
+      if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
     const int m = d.size();
     const int nn = 3 * int(d.node_slots.size());
     for (int ls = 1; ls <= opt.load_steps; ++ls) {

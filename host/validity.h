@@ -37,7 +37,7 @@ class ValidityMonitor {
       : s_(s), lim_(s.sim.validity) {
     e0_ = std::isnan(energy0) ? budget(e0) : energy0;
     scale_ = std::isnan(scale) ? e0.kinetic + e0.elastic : scale;
-    source_ = !b.driven.empty();
+    source_ = !b.driven.empty() || b.any_fluid();  // (a fluid: buoyancy and wind do work)
     for (const RodGroup& g : s.groups)
       if (g.tip_force[0] != 0 || g.tip_force[1] != 0 || g.tip_force[2] != 0) source_ = true;
     for (const Collider& c : s.contact.colliders)

@@ -356,7 +356,7 @@ TEST(SceneErrors, WrongTypes) {
   expect_error(scene_text("", "precision = 32\n"), {"bad.toml:4:", "simulation.precision: must be a string"});
   expect_error(scene_text("[rods.terms]\nshear = 1\n"),
                {"bad.toml:13:9: rods.0.terms.shear: must be true or false"});
-  expect_error(scene_text("root = \"pinned\"\n"), {"bad.toml:12:", "rods.0.root: \"pinned\" is not one of"});
+  expect_error(scene_text("root = \"hinged\"\n"), {"bad.toml:12:", "rods.0.root: \"hinged\" is not one of"});
 }
 
 TEST(SceneErrors, OutOfRangeValues) {
@@ -412,7 +412,7 @@ TEST(SceneErrors, InconsistentOrMissing) {
       head + mat + "section = { shape = \"hollow_circle\", outer_radius = 0.01, inner_radius = 0.01 }\n",
       {"bad.toml:8:", "rods.0.section.inner_radius: must be < outer_radius"});
   expect_error(head + sec + mat + "root = \"driven\"\n",
-               {"bad.toml:9:", "rods.0.root: \"driven\" is not one of \"clamped\", \"free\""});
+               {"bad.toml:9:", "rods.0.root: \"driven\" is not one of \"clamped\", \"pinned\", \"free\""});
   // driven roots
   expect_error(head + sec + mat + "root = { frequency = 2.0 }\n",
                {"bad.toml:9:", "rods.0.root.motion: missing"});

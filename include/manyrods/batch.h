@@ -31,11 +31,24 @@
 #include "manyrods/contact.h"
 #include "manyrods/drive.h"
 #include "manyrods/fields.h"
+#include "manyrods/fluid.h"
 #include "manyrods/material.h"
 
 namespace manyrods {
 
 // Vec3, Mat3 (row-major, rows = directors d1, d2, d3): include/manyrods/drive.h
+
+// An interior node held in place (pinned: node fixed, frames free) or in
+// place and orientation (clamped: the node and the frames of the two
+// elements that meet there, i.e. the clamp grips the half elements on either
+// side), optionally following a rigid motion (driven: the node, and the held
+// frames, follow it as a driven root does; include/manyrods/drive.h).
+enum class HoldKind { pinned, clamped };
+struct NodeHold {
+  int node = 1;  // 1 … n−1 (the root and the tip have their own fields)
+  HoldKind kind = HoldKind::clamped;
+  std::shared_ptr<const RootMotion> motion;  // null: static
+};
 
 // One rod as the user describes it (double precision, SI units).
 struct RodSpec {
@@ -48,24 +61,38 @@ struct RodSpec {
   // Multiplies C_F = (κ1GA, κ2GA, EA), e.g. 1e4 for a nearly inextensible,
   // unshearable rod (the elastica case of docs/validation.md). The viscous V_F scales with it.
   double shear_stretch_scale = 1;
+  // Held ends (docs/scenes.md "Constraints"). Clamped: the node and the
+  // frame at that end are held (the clamp frame, in the ghost element, is
+  // tied to the end element by half a Voronoi spring); pinned: the node is
+  // held and the frame is free. At most one of clamped/pinned per end.
   bool clamped_root = false;          // node 0 fixed, frame fixed at s = 0
+  bool pinned_root = false;           // node 0 fixed, frame free
   // Node n fixed, frame fixed at s = L (a cable between two connectors, a
-  // fiber held at both ends). Static: with a driven root it cannot take part
-  // in the implicit solve (a stiff or damped rod), which would move it with
-  // the root's rigid motion (kernels/viscous_implicit.h rigid_shift).
+  // fiber held at both ends), or (pinned_tip) node n fixed, frame free.
   bool clamped_tip = false;
+  bool pinned_tip = false;
   std::optional<Mat3> tip_frame;      // clamp frame at s = L (default: frames[n−1])
+  // Interior nodes 1 … n−1 held (NodeHold): pinned, clamped, or driven.
+  std::vector<NodeHold> holds;
   // Stiff rods (hair, wire: shear, stretch and twist far stiffer than
   // bending): integrate shear, stretch and twist linearly implicitly so that
   // the stable step is the bending one (≈ 1e-4 s and more for hair instead of
   // 4e-8 s). First order in the stiff components, which it damps; see
   // kernels/viscous_implicit.h and README "Stiff rods". Position Verlet only.
+  // A stiff rod's holds are all static, or it has exactly one, driven, at
+  // the root or the tip (its implicit solve runs relative to that motion).
   bool stiff_implicit = false;
   std::optional<Mat3> root_frame;     // clamp frame at s = 0 (default: frames[0])
-  // A driven root (include/manyrods/drive.h): the clamp (node 0 and the
-  // clamp frame) follows this rigid motion of the given root; needs
-  // clamped_root. Rods may share one motion.
+  // A driven root (include/manyrods/drive.h): the held root (node 0 and, if
+  // clamped, the clamp frame) follows this rigid motion of the given root;
+  // needs clamped_root or pinned_root. Rods may share one motion.
   std::shared_ptr<const RootMotion> root_motion;
+  // A driven tip: the same for node n and the tip's clamp frame; needs
+  // clamped_tip or pinned_tip. A rotation about the rod's axis twists it.
+  std::shared_ptr<const RootMotion> tip_motion;
+  // Drag and buoyancy coefficients in a fluid (include/manyrods/fluid.h;
+  // they act only when the batch has a fluid, RodBatch::set_fluid).
+  Drag drag;
   // Rest shape. Empty = the given geometry is the rest shape (unstressed).
   std::vector<Vec3> rest_curvature;   // [n−1] U0 at interior Voronoi points, 1/m
   std::vector<Vec3> rest_strain;      // [n] V0, rest lengths are the given ones
@@ -103,13 +130,23 @@ struct Segment {
   int groups_begin[2] = {0, 0}, groups_end[2] = {0, 0};
 };
 
-// A rod with a driven root: its motion (index into RodBatch::motions) and the
-// root node and clamp frame it was built with (the pose-identity ones).
-struct DrivenRoot {
+// A held node on a rigid motion (a driven root, tip or interior hold): its
+// motion (index into RodBatch::motions), its node's slot and the slots of
+// the frames it holds (the clamp frame in the ghost element at a root or
+// tip, pinned or not, which gives the motion's Ω to the implicit solve; the
+// two elements around a clamped interior node; −1: none), and the node and
+// frames it was built with (the pose-identity ones). `reference`: the
+// implicit solve of its rod runs relative to this hold's rigid motion
+// (host/implicit_solve.h): a driven root, else the one driven hold of a
+// stiff rod.
+struct DrivenHold {
   int rod = 0;
   int motion = 0;
+  int node = 0;
+  int frame[2] = {-1, -1};
   Vec3 x0{};
-  Mat3 q0{};
+  Mat3 q0[2]{};
+  bool reference = false;
 };
 
 // The rods of one call of the implicit per-rod solve: `count` rods of
@@ -136,13 +173,37 @@ struct RodInfo {
   int offset = 0;  // o_r, first slot
   bool clamped_root = false;
   bool clamped_tip = false;
+  bool pinned_root = false;
+  bool pinned_tip = false;
+  int holds = 0;                // interior held nodes (RodSpec::holds)
   bool stiff_implicit = false;  // RodSpec::stiff_implicit
   bool damped = false;          // some retardation time > 0
-  bool driven = false;          // RodSpec::root_motion set (an entry of RodBatch::driven)
+  bool driven = false;          // some hold on a motion (entries of RodBatch::driven)
+  // held unknowns with prescribed, possibly non-zero, velocities besides the
+  // reference hold (DrivenHold::reference): its implicit solve is the scalar
+  // kernel's delta form (host/implicit_plan.cpp), which keeps them exactly
+  bool prescribed = false;
   ElasticConstants elastic{};
   SectionProperties section{};
   RetardationTimes tau{};
   double contact_radius = 0;  // m: the radius its centreline is swept by in contact (include/manyrods/contact.h)
+  Drag drag{};                // RodSpec::drag
+};
+
+// The batch's fluid (set_fluid fills it; include/manyrods/fluid.h). The node
+// arrays are lumped (ℓ_k = half the elements on either side included) and
+// allocated only when a fluid is set: a batch without one holds none.
+template <class T>
+struct FluidData {
+  bool on = false;
+  bool linear = false, quadratic = false, buoyancy = false;  // which parts any rod has
+  Fluid spec;
+  std::vector<TurbulentMode> modes;  // from spec.turbulence
+  Array<T> node_cn, node_ct;   // N·s/m: c⊥ℓ, c∥ℓ
+  Array<T> node_qn, node_qt;   // kg/m: ½ρC⊥dℓ, ½ρC∥πdℓ
+  Array<T> node_buoyancy;      // kg: ρ_f A ℓ
+  Array<T> node_half_left, node_half_right;  // m: l̂_{k−1}/2, l̂_k/2 (0 off the rod)
+  std::array<Array<T>, 3> node_v_saved;      // m/s: the velocities before the kick (scratch)
 };
 
 // One field of the lists in include/manyrods/fields.h: one array, or one
@@ -209,6 +270,12 @@ template <class T> struct ConstScratchView;
 template <class T> struct LoadsView;
 template <class T> struct ImplicitScratchView;
 
+// The fluid of the batch's rods (include/manyrods/fluid.h); validates it and
+// the rods' drag coefficients (InputError naming the field or rod).
+template <class T> class RodBatch;
+template <class T>
+void set_fluid(RodBatch<T>& b, const Fluid& fluid);
+
 template <class T>
 class RodBatch {
  public:
@@ -218,8 +285,9 @@ class RodBatch {
   Loads<T> loads;
   std::vector<RodInfo> rods;
   std::vector<Segment> segments;  // cover [0, slots), in order
-  // Driven roots (include/manyrods/drive.h), by rod index; the distinct motions.
-  std::vector<DrivenRoot> driven;
+  // Driven holds (include/manyrods/drive.h), by rod index (root, interior
+  // nodes in order, tip); the distinct motions.
+  std::vector<DrivenHold> driven;
   std::vector<std::shared_ptr<const RootMotion>> motions;
   // The rods of the implicit solve in lane groups, [0] without and [1] with
   // the Kelvin–Voigt term (stiff rods always; damped rods with it), built
@@ -227,6 +295,8 @@ class RodBatch {
   std::array<SolvePlan, 2> solve_plan;
   // What the rods touch (set_contact, include/manyrods/contact.h); off by default.
   ContactData<T> contact;
+  // The fluid the rods are in (set_fluid, include/manyrods/fluid.h); off by default.
+  FluidData<T> fluid;
 
   int rod_count() const { return static_cast<int>(rods.size()); }
   int slots() const { return slots_; }
@@ -265,6 +335,8 @@ class RodBatch {
   void reserve_implicit_scratch(int threads, int min_cells = 0);
   ImplicitScratchView<T> implicit_scratch_view(int thread, int cell_offset);
   bool any_stiff() const { return any_stiff_; }
+  // The step's fluid stage runs (set_fluid with some rod that has drag or buoyancy).
+  bool any_fluid() const { return fluid.on; }
 
   // Used by build_batch.
   void allocate(int slots, std::int64_t elements);

@@ -87,6 +87,24 @@ struct KeyframedMotion : RootMotion {
   void validate() const override;
 };
 
+// A ramp: translation d·s(t) and a rotation by θ·s(t) about `axis` through
+// `pivot`, s(t) rising from 0 at start_time to 1 at start_time + duration
+// (linearly, or with smoothstep 3x² − 2x³ when `smooth`), constant outside.
+// θ may be any number of turns: a rod's tip pushed towards its root and
+// twisted about the rod's axis (helical buckling), a slow compression.
+struct RampMotion : RootMotion {
+  Vec3 translation{0, 0, 0};  // m
+  Vec3 axis{0, 0, 1};         // any length > 0 when rotation ≠ 0
+  double rotation = 0;        // rad
+  double start_time = 0;      // s
+  double duration = 1;        // s, > 0
+  bool smooth = false;
+  Vec3 pivot{0, 0, 0};        // m
+  Pose at(double t) const override;
+  // Throws InputError naming the first bad field.
+  void validate() const override;
+};
+
 // A motion over one step [t, t + h] (host/root_motion.h apply_root_motion): the
 // poses at both ends and the constant lab angular velocity Ω that turns one
 // into the other, exp(h [Ω]×) = R(t + h) R(t)ᵀ.

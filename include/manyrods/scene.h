@@ -108,6 +108,10 @@ struct Scene {
   // [[colliders]] and [contact] (docs/contact.md), with each rod's group friction
   ContactSpec contact;
   bool has_contact = false;
+  // [fluid] (include/manyrods/fluid.h); also set, with a still fluid, when
+  // some group has drag and the scene no [fluid] table
+  Fluid fluid;
+  bool has_fluid = false;
 };
 
 // Parses and validates. `overrides` set numeric values by key path before

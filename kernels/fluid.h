@@ -1,0 +1,126 @@
+// kernels/fluid.h — drag, buoyancy and wind on the nodes: the fluid's part of
+// the kick as an exact per-node flow at fixed positions (include/manyrods/fluid.h
+// has the force law; docs/model.md "Drag, buoyancy and wind").
+//
+// Node k carries the drag of the half elements on either side of it, lumped:
+// its coefficients are the per-length ones times ℓ_k = (l̂_{k−1} + l̂_k)/2, its
+// tangent the length-weighted mean of the two elements' d3. Over a kick of
+// length h at fixed positions and frames, with w = v − U the velocity
+// relative to the fluid split into w∥ = (w·t̂)t̂ and w⊥, and a the kick's
+// acceleration (elastic, gravity, loads: what the kick adds, divided by h)
+// plus buoyancy, the node moves by
+//   ẇ⊥ = −λ⊥ w⊥ + a⊥,   ẇ∥ = −λ∥ w∥ + a∥,
+//   λ⊥ = m⁻¹(c⊥ℓ + ½ρ C⊥ d ℓ |w⊥|),  λ∥ = m⁻¹(c∥ℓ + ½ρ C∥ π d ℓ |w∥|),
+//   a_buoyancy = −m⁻¹ ρ_f A ℓ g,
+// with a and the quadratic rates frozen at the start of the kick. The kick
+// is its exact solution (an exponential integrator),
+//   w⁺ = e^{−λh} w + φ(λ, h) a,   φ = (1 − e^{−λh})/λ  (→ h as λ → 0):
+// the plain kick w + h a when λh → 0, a decay for any λh (no limit on the
+// step, however large the drag), and the terminal velocity U + a/λ as its
+// exact fixed point. For constant λ the map is time-reversible (its inverse
+// is the map with −h), so Position Verlet stays symmetric and second order
+// with linear drag; the frozen quadratic rate makes that part first order.
+// The host saves v before the kick (fluid_save) and applies the update after
+// it (fluid_node), recovering h a = v_kick − v_before, exactly the increment
+// the kick rounded. Held nodes (m⁻¹ = 0) keep their velocity.
+//
+// The fluid velocity U(x, t) = Ū(t) + Σ_m a_m sin(k_m·x + c_m(t)): the host
+// gives Ū and each mode's k, a and phase c_m(t) = −k_m·Ū t + ω_m t + φ_m for
+// the time of the kick.
+//
+// reads: node_x, node_v, elem_Q (elements k−1, k), node_inv_mass, the fluid
+// arrays  writes: node_v (node k), the saved velocity
+#pragma once
+
+#include "kernels/views.h"
+
+namespace manyrods {
+
+// Which parts of the fluid a stage includes (compile-time: a batch compiles
+// only the ones its rods and fluid use).
+struct FluidTerms {
+  bool linear = false;      // c⊥, c∥
+  bool quadratic = false;   // C⊥, C∥ with ρ_f
+  bool buoyancy = false;    // ρ_f A g
+  bool turbulence = false;  // the random Fourier modes
+};
+
+// Per node, lumped (ℓ_k included): the linear and quadratic coefficients
+// (N·s/m and kg/m), the displaced fluid mass (kg), and the half lengths of
+// the elements on either side (m; 0 on a rod's outer side and for ghosts).
+template <class T>
+struct FluidView {
+  const T *cn, *ct, *qn, *qt, *buoyancy, *half_left, *half_right;
+  T* saved[3];      // v before the kick
+  vec3<T> mean;     // Ū at the kick's time, m/s
+  vec3<T> gravity;  // g (0 when the step has no gravity), m/s²
+  const T* modes;   // 7 per mode: k (3), a (3), phase c_m
+  int mode_count;
+};
+
+template <class T>
+MANYRODS_HD inline vec3<T> fluid_velocity(vec3<T> x, const FluidView<T>& f) {
+  vec3<T> u = f.mean;
+  for (int i = 0; i < f.mode_count; ++i) {
+    const T* p = f.modes + 7 * i;
+    using std::sin;
+    const T s = sin(p[0] * x.x + p[1] * x.y + p[2] * x.z + p[6]);
+    u = u + s * vec3<T>{p[3], p[4], p[5]};
+  }
+  return u;
+}
+
+// exp(−λτ) and φ(λ, τ) = (1 − e^{−λτ})/λ, accurate for small λτ.
+template <class T>
+MANYRODS_HD inline void decay(T lambda, T tau, T& e, T& phi) {
+  using std::exp;
+  using std::expm1;
+  const T z = lambda * tau;
+  e = exp(-z);
+  phi = z > T(1e-6) ? -expm1(-z) / lambda : tau * (T(1) - T(0.5) * z);
+}
+
+template <class T>
+MANYRODS_HD inline void fluid_save(int k, const FluidView<T>& f, const StateView<T>& s) {
+  for (int d = 0; d < 3; ++d) f.saved[d][k] = s.node_v[d][k];
+}
+
+template <FluidTerms kF, class T>
+MANYRODS_HD inline void fluid_node(int k, T h, const FluidView<T>& f, const ModelView<T>& m, const StateView<T>& s) {
+  const T im = m.node_inv_mass[k];
+  const vec3<T> vk = load3(s.node_v, k);  // after the kick
+  const vec3<T> v{f.saved[0][k], f.saved[1][k], f.saved[2][k]};
+  vec3<T> a = (T(1) / h) * (vk - v);
+  if constexpr (kF.buoyancy) a = a + (-im * f.buoyancy[k]) * f.gravity;
+  const vec3<T> x = load3(s.node_x, k);
+  const vec3<T> u = kF.turbulence ? fluid_velocity(x, f) : f.mean;
+  // tangent: the half elements' d3, weighted by length
+  const vec3<T> d3l{s.elem_Q[6][k - 1], s.elem_Q[7][k - 1], s.elem_Q[8][k - 1]};
+  const vec3<T> d3r{s.elem_Q[6][k], s.elem_Q[7][k], s.elem_Q[8][k]};
+  vec3<T> t = f.half_left[k] * d3l + f.half_right[k] * d3r;
+  const T tn = norm(t);
+  t = tn > T(0) ? (T(1) / tn) * t : vec3<T>{T(0), T(0), T(1)};
+  const vec3<T> w = v - u;
+  const T wt = dot(w, t), at = dot(a, t);
+  const vec3<T> wn = w - wt * t, an = a - at * t;
+  T ln = T(0), lt = T(0);
+  if constexpr (kF.linear) {
+    ln = f.cn[k];
+    lt = f.ct[k];
+  }
+  if constexpr (kF.quadratic) {
+    using std::abs;
+    ln += f.qn[k] * norm(wn);
+    lt += f.qt[k] * abs(wt);
+  }
+  ln *= im;
+  lt *= im;
+  T en, pn, et, pt;
+  decay(ln, h, en, pn);
+  decay(lt, h, et, pt);
+  const vec3<T> v1 = u + en * wn + pn * an + (et * wt + pt * at) * t;
+  const bool held = im == T(0);
+  store3(s.node_v, k, held ? vk : v1);
+}
+
+}  // namespace manyrods
