@@ -8,6 +8,7 @@
 #include <string>
 
 #include "host/rng.h"
+#include "kernels/fluid.h"
 #include "manyrods/batch.h"
 #include "manyrods/material.h"
 
@@ -79,7 +80,9 @@ Vec3 Fluid::velocity_at(const Vec3& x, double t) const {
   for (const TurbulentMode& m : turbulent_modes(turbulence)) {
     double arg = m.omega * t + m.phase;
     for (int d = 0; d < 3; ++d) arg += m.k[d] * (x[d] - ub[d] * t);
-    for (int d = 0; d < 3; ++d) u[d] += m.amplitude[d] * std::sin(arg);
+    arg = std::remainder(arg, 2 * std::numbers::pi);  // (as the kernels' phases)
+    const double s = fluid_sin(arg);  // the kernels' sin (kernels/fluid.h)
+    for (int d = 0; d < 3; ++d) u[d] += m.amplitude[d] * s;
   }
   return u;
 }
