@@ -43,6 +43,30 @@ Vec3 Fluid::mean_velocity(double t) const {
   return u;
 }
 
+Vec3 Fluid::mean_displacement(double t) const {
+  Vec3 x{0, 0, 0};
+  auto add = [&](const Vec3& u, double dt) {
+    for (int d = 0; d < 3; ++d) x[d] += u[d] * dt;
+  };
+  if (times.empty()) {
+    add(velocity, t);
+    return x;
+  }
+  // ∫ from 0 to t of the table (held before the first and after the last
+  // entry): the trapezoid of each piece between the breakpoints in [0, t]
+  const double lo = std::min(0.0, t), hi = std::max(0.0, t), sign = t >= 0 ? 1.0 : -1.0;
+  std::vector<double> cuts{lo};
+  for (double tk : times)
+    if (tk > lo && tk < hi) cuts.push_back(tk);
+  cuts.push_back(hi);
+  for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+    const Vec3 a = mean_velocity(cuts[i]), b = mean_velocity(cuts[i + 1]);
+    const double dt = sign * (cuts[i + 1] - cuts[i]);
+    for (int d = 0; d < 3; ++d) x[d] += 0.5 * (a[d] + b[d]) * dt;
+  }
+  return x;
+}
+
 std::vector<TurbulentMode> turbulent_modes(const Turbulence& t) {
   std::vector<TurbulentMode> modes;
   if (!(t.intensity > 0) || t.modes <= 0) return modes;
@@ -76,10 +100,10 @@ std::vector<TurbulentMode> turbulent_modes(const Turbulence& t) {
 
 Vec3 Fluid::velocity_at(const Vec3& x, double t) const {
   Vec3 u = mean_velocity(t);
-  const Vec3 ub = u;
+  const Vec3 X = mean_displacement(t);
   for (const TurbulentMode& m : turbulent_modes(turbulence)) {
     double arg = m.omega * t + m.phase;
-    for (int d = 0; d < 3; ++d) arg += m.k[d] * (x[d] - ub[d] * t);
+    for (int d = 0; d < 3; ++d) arg += m.k[d] * (x[d] - X[d]);
     arg = std::remainder(arg, 2 * std::numbers::pi);  // (as the kernels' phases)
     const double s = fluid_sin(arg);  // the kernels' sin (kernels/fluid.h)
     for (int d = 0; d < 3; ++d) u[d] += m.amplitude[d] * s;

@@ -55,13 +55,13 @@ void fluid_save_stage(RodBatch<T>& b, const Exec& ex, const Segment& r) {
 template <class T>
 void fluid_stage(RodBatch<T>& b, T h, double t, bool gravity, const Exec& ex, const Segment& r) {
   FluidData<T>& fd = b.fluid;
-  const Vec3 mean = fd.spec.mean_velocity(t);
-  // each mode's phase at t, c_m = −k·Ū t + ω t + φ (reduced mod 2π in double)
+  const Vec3 mean = fd.spec.mean_velocity(t), X = fd.spec.mean_displacement(t);
+  // each mode's phase at t, c_m = −k·X(t) + ω t + φ (reduced mod 2π in double)
   T modes[7 * 256];  // (Turbulence::modes ≤ 256, Fluid::validate)
   const int count = int(fd.modes.size());
   for (int i = 0; i < count; ++i) {
     const TurbulentMode& md = fd.modes[i];
-    double c = md.omega * t + md.phase - (md.k[0] * mean[0] + md.k[1] * mean[1] + md.k[2] * mean[2]) * t;
+    double c = md.omega * t + md.phase - (md.k[0] * X[0] + md.k[1] * X[1] + md.k[2] * X[2]);
     c = std::remainder(c, 2 * std::numbers::pi);
     for (int d = 0; d < 3; ++d) {
       modes[7 * i + d] = T(md.k[d]);

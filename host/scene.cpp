@@ -411,6 +411,9 @@ void parse_fluid(const Table& top, Scene& sc) {
   bool drag = false;
   for (const RodSpec& r : sc.rods) drag = drag || r.drag.any();
   sc.has_fluid = drag || top.has("fluid");
+  if (sc.has_fluid && sc.sim.integrator == Integrator::pefrl)
+    throw SceneError(sc.source + ": " + (top.has("fluid") ? "fluid" : "rods.*.drag") +
+                     ": a fluid needs integrator = \"position_verlet\" (PEFRL's backward kicks would amplify the drag)");
   if (!top.has("fluid")) {
     for (std::size_t gi = 0; gi < sc.groups.size(); ++gi) {
       const Drag& d = sc.rods[sc.groups[gi].first_rod].drag;
@@ -453,9 +456,12 @@ void parse_fluid(const Table& top, Scene& sc) {
   }
   for (std::size_t gi = 0; gi < sc.groups.size(); ++gi) {
     const Drag& d = sc.rods[sc.groups[gi].first_rod].drag;
-    if ((d.cd_normal > 0 || d.cd_tangential > 0) && !(fl.density > 0))
-      f.fail(f.has("density") ? "density" : "velocity",
-             "rods." + std::to_string(gi) + ".drag has quadratic coefficients (cd_normal, cd_tangential), which need density > 0");
+    if ((d.cd_normal > 0 || d.cd_tangential > 0) && !(fl.density > 0)) {
+      const std::string msg = "rods." + std::to_string(gi) +
+                              ".drag has quadratic coefficients (cd_normal, cd_tangential), which need density > 0";
+      if (f.has("density")) f.fail("density", msg);
+      throw SceneError(f.ctx.where(f.t) + "fluid.density: missing (" + msg + ")");
+    }
   }
 }
 

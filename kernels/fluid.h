@@ -25,8 +25,8 @@
 // the kick rounded. Held nodes (m⁻¹ = 0) keep their velocity.
 //
 // The fluid velocity U(x, t) = Ū(t) + Σ_m a_m sin(k_m·x + c_m(t)): the host
-// gives Ū and each mode's k, a and phase c_m(t) = −k_m·Ū t + ω_m t + φ_m for
-// the time of the kick.
+// gives Ū and each mode's k, a and phase c_m(t) = −k_m·X(t) + ω_m t + φ_m,
+// X(t) = ∫₀ᵗ Ū dt, for the time of the kick.
 //
 // reads: node_x, node_v, elem_Q (elements k−1, k), node_inv_mass, the fluid
 // arrays  writes: node_v (node k), the saved velocity

@@ -152,6 +152,14 @@ TEST(Fluid, RodsFeelTheDocumentedWindField) {
   EXPECT_DOUBLE_EQ(m[1], 0.5);
   EXPECT_DOUBLE_EQ(f.mean_velocity(-1)[0], 1.0);
   EXPECT_DOUBLE_EQ(f.mean_velocity(5)[1], 2.0);
+  // the turbulent pattern is carried by X(t) = ∫Ū dt: 2 m by t = 1 s along
+  // x (1 → 3 m/s), 1 m along y; then 3 and 2 m/s held
+  const Vec3 X1 = f.mean_displacement(1), X3 = f.mean_displacement(3);
+  EXPECT_NEAR(X1[0], 2.0, 1e-15);
+  EXPECT_NEAR(X1[1], 1.0, 1e-15);
+  EXPECT_NEAR(X3[0], 8.0, 1e-14);
+  EXPECT_NEAR(X3[1], 5.0, 1e-14);
+  EXPECT_NEAR(f.mean_displacement(0.5)[0], 0.5 * (1 + 2) * 0.5, 1e-15);
 }
 
 TEST(Fluid, TurbulenceHasItsIntensityIsDivergenceFreeAndSeeded) {

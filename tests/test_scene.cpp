@@ -594,3 +594,88 @@ TEST(Scene, RodDroppedOnAMeshHeadStaysOutside) {
   EXPECT_LT(cs.max_penetration, 0.1 * 0.002);
   for (int j = 0; j <= b.elements(0); ++j) EXPECT_GT(b.position(0, j)[2], 0.09);  // on top, not through
 }
+
+TEST(Scene, HeldEndsConstraintsAndFluid) {
+  // root and tip kinds, a driven tip on a ramp, interior constraints, drag
+  // and a [fluid] with a time table and turbulence
+  const Scene s = parse_scene(
+      scene_text("root = \"pinned\"\n"
+                 "tip = { kind = \"clamped\", motion = \"ramp\", translation = [0.0, 0.0, -0.05], rotation_axis = "
+                 "[0.0, 0.0, 1.0], rotation = 720.0, duration = 2.0, profile = \"smooth\" }\n"
+                 "drag = { normal = 0.5, tangential = 0.25, cd_normal = 1.2 }\n"
+                 "[[rods.constraints]]\nnode = 2\nkind = \"pinned\"\n"
+                 "[[rods.constraints]]\nnode = 4\nkind = \"clamped\"\nmotion = \"oscillate\"\n"
+                 "translation_amplitude = [0.01, 0.0, 0.0]\nfrequency = 1.0\n"
+                 "[fluid]\ndensity = 1.2\ntimes = [0.0, 1.0]\nvelocities = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]\n"
+                 "turbulence = { intensity = 0.3, length_scale = 0.2, time_scale = 0.5, modes = 8, seed = 5 }\n"),
+      "held.toml");
+  ASSERT_EQ(s.rods.size(), 1u);
+  const RodSpec& r = s.rods[0];
+  EXPECT_TRUE(r.pinned_root && !r.clamped_root && !r.root_motion);
+  EXPECT_TRUE(r.clamped_tip && r.tip_motion);
+  const auto* ramp = dynamic_cast<const RampMotion*>(r.tip_motion.get());
+  ASSERT_NE(ramp, nullptr);
+  EXPECT_NEAR(ramp->rotation, 4 * std::numbers::pi, 1e-14);  // degrees in the file
+  EXPECT_TRUE(ramp->smooth);
+  ASSERT_EQ(r.holds.size(), 2u);
+  EXPECT_EQ(r.holds[0].node, 2);
+  EXPECT_EQ(r.holds[0].kind, HoldKind::pinned);
+  EXPECT_EQ(r.holds[0].motion, nullptr);
+  EXPECT_EQ(r.holds[1].kind, HoldKind::clamped);
+  EXPECT_NE(r.holds[1].motion, nullptr);
+  EXPECT_EQ(r.drag.normal, 0.5);
+  EXPECT_EQ(r.drag.cd_normal, 1.2);
+  EXPECT_TRUE(s.has_fluid);
+  EXPECT_EQ(s.fluid.turbulence.modes, 8);
+  EXPECT_EQ(s.fluid.mean_velocity(0.5)[0], 1.0);
+  // the batch holds what the scene says: the tip turns 2 turns over 2 s
+  RodBatch<double> b = build_scene_batch<double>(s);
+  EXPECT_TRUE(b.any_fluid());
+  EXPECT_EQ(b.driven.size(), 2u);
+  advance_scene(b, step_choice(s), 1e-4, 100, {});
+  EXPECT_TRUE(!find_non_finite(b).found);
+  EXPECT_EQ(b.model.node_inv_mass[b.node_index(0, 0)], 0.0);
+  EXPECT_EQ(b.model.node_inv_mass[b.node_index(0, 2)], 0.0);
+  EXPECT_EQ(b.model.elem_inv_inertia[0][b.elem_index(0, 3)], 0.0);  // node 4's clamp holds elements 3 and 4
+  EXPECT_EQ(b.model.elem_inv_inertia[0][b.elem_index(0, 4)], 0.0);
+}
+
+TEST(SceneErrors, BadConstraintsAndFluids) {
+  const std::string c = "[[rods.constraints]]\n";
+  expect_error(scene_text(c + "node = 6\nkind = \"pinned\"\n"),
+               {"bad.toml:", "rods.0.constraints.0.node: node 6 is the tip: hold it with the group's tip key"});
+  expect_error(scene_text(c + "node = 9\nkind = \"pinned\"\n"),
+               {"rods.0.constraints.0.node: node 9 does not exist (the rods have nodes 0 … 6)"});
+  expect_error(scene_text(c + "node = 0\nkind = \"pinned\"\n"), {"rods.0.constraints.0.node: node 0 is the root"});
+  expect_error(scene_text(c + "node = 3\nkind = \"pinned\"\n" + c + "node = 3\nkind = \"clamped\"\n"),
+               {"rods.0.constraints.1.node: node 3 has two constraints (one per node)"});
+  expect_error(scene_text(c + "node = 3\n"), {"rods.0.constraints.0.kind: missing"});
+  expect_error(scene_text(c + "node = 3\nkind = \"welded\"\n"),
+               {"rods.0.constraints.0.kind: \"welded\" is not one of \"clamped\", \"pinned\""});
+  expect_error(scene_text("drag = { normal = -1.0 }\n"), {"rods.0.drag.normal: must be >= 0 (got -1)"});
+  expect_error(scene_text("drag = { cd_normal = 1.0 }\n"),
+               {"rods.0.drag: cd_normal and cd_tangential (quadratic drag) need a [fluid] table with density > 0"});
+  expect_error(scene_text("drag = { normal = 1.0 }\n[fluid]\ntimes = [0.0, 1.0]\n"),
+               {"fluid.times: give times and velocities together"});
+  expect_error(scene_text("[fluid]\nturbulence = { intensity = 1.0, length_scale = 0.1, time_scale = 1.0, modes = 999 }\n"),
+               {"fluid.turbulence.modes: must be in [1, 256] (got 999)"});
+  expect_error(scene_text("drag = { cd_normal = 1.0 }\n[fluid]\nvelocity = [1.0, 0.0, 0.0]\n"),
+               {"fluid.density: missing (rods.0.drag has quadratic coefficients"});
+  expect_error(scene_text("drag = { normal = 1.0 }\n", "integrator = \"pefrl\"\n"),
+               {"rods.*.drag: a fluid needs integrator = \"position_verlet\""});
+  expect_error(scene_text("tip = \"pinned\"\ntip_force = [0.0, 0.0, 1.0]\n"),
+               {"rods.0.tip_force: acts on the tip node, which tip = \"pinned\" holds fixed"});
+  expect_error(scene_text("tip = { kind = \"pinned\", motion = \"ramp\", translation = [0.0, 0.0, 1.0] }\n"),
+               {"rods.0.tip.duration: missing"});
+  // a stiff rod held at both ends with one end driven: refused when the batch is built
+  const Scene st = parse_scene(scene_text("stiff = true\nroot = \"clamped\"\ntip = { kind = \"pinned\", motion = "
+                                          "\"ramp\", translation = [0.0, 0.0, 0.01], duration = 1.0 }\n"),
+                               "stiff.toml");
+  try {
+    (void)build_scene_batch<double>(st);
+    ADD_FAILURE() << "a stiff rod with a driven tip and a clamped root was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("stiff.toml: rod 0 ('beam[0]'): holds: a stiff rod's holds must all be static"),
+              std::string::npos) << e.what();
+  }
+}

@@ -40,8 +40,8 @@ struct Drag {
 };
 
 // A deterministic turbulent part: a sum of `modes` random Fourier modes,
-//   U′(x, t) = Σ_m a_m sin(k_m · (x − Ū t) + ω_m t + φ_m),  a_m ⊥ k_m,
-// advected by the mean velocity Ū (frozen turbulence, Taylor) and
+//   U′(x, t) = Σ_m a_m sin(k_m · (x − X(t)) + ω_m t + φ_m),  a_m ⊥ k_m,
+// advected by the mean flow, X(t) = ∫₀ᵗ Ū dt (frozen turbulence, Taylor), and
 // decorrelating over `time_scale`; |k_m| = 2π/length_scale × [0.5, 2),
 // ω_m = 2π/time_scale × [0.5, 1.5), directions uniform; the amplitudes give
 // each component an rms of `intensity`. Divergence-free (each mode is). The
@@ -66,6 +66,9 @@ struct Fluid {
   Turbulence turbulence;
 
   Vec3 mean_velocity(double t) const;
+  // X(t) = ∫₀ᵗ Ū dt (exact for the piecewise-linear table), m: how far the
+  // mean flow has carried the turbulent pattern.
+  Vec3 mean_displacement(double t) const;
   // Mean plus turbulent part at a point (the field the kernels evaluate).
   Vec3 velocity_at(const Vec3& x, double t) const;
   // Throws InputError naming the first bad field.
