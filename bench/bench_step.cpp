@@ -42,6 +42,7 @@ void run_step(benchmark::State& state, const std::string& scene, bool kv) {
   const Exec ex{threads};
   Scene sc = make_scene(scene, kv);
   RodBatch<T> b = build_batch<T>(sc.rods, sc.gravity);
+  if (sc.has_fluid) set_fluid(b, sc.fluid);
   // Half the stable step of the chosen scheme (explicit KV: its viscous limit).
   const StableDt lim = stable_dt<kT>(b);
   const T dt = T(0.5 * (kT.kelvin_voigt && kV == Viscous::explicit_rate ? std::min(lim.elastic, lim.explicit_viscous)
@@ -116,5 +117,20 @@ BENCHMARK(BM_step_hairturn_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealT
 BENCHMARK(BM_step64_hairturn_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 
 }  // namespace
+
+// What holds and fluids cost (bench/RESULTS.md "Constraints and fluids"):
+// the fibers with each, against the plain fibers, undamped and damped.
+#define MANYRODS_COST(scene)                                                                                      \
+  void BM_cost_##scene##_nokv_double(benchmark::State& s) { run_step<double, kNoKV, Viscous::implicit>(s, #scene, false); } \
+  void BM_cost_##scene##_kv_double(benchmark::State& s) { run_step<double, kAllTerms, Viscous::implicit>(s, #scene, true); } \
+  void BM_cost_##scene##_nokv_float(benchmark::State& s) { run_step<float, kNoKV, Viscous::implicit>(s, #scene, false); } \
+  BENCHMARK(BM_cost_##scene##_nokv_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);       \
+  BENCHMARK(BM_cost_##scene##_kv_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);         \
+  BENCHMARK(BM_cost_##scene##_nokv_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+MANYRODS_COST(fibers)
+MANYRODS_COST(fibers_pinned)
+MANYRODS_COST(fibers_driven)
+MANYRODS_COST(fibers_drag)
+MANYRODS_COST(fibers_wind)
 
 BENCHMARK_MAIN();

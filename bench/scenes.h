@@ -11,6 +11,14 @@
 //   mixed: 5,000 rods with 8 … 256 elements
 //   fibers: 1,000 rods × 32 elements, seed material, clamped, gravity — the
 //          scene of the side-by-side runs with PyElastica (bench/RESULTS.md)
+//   fibers_pinned: fibers pinned at both ends (no inverse mass at node 0
+//          and n, frames free): what static holds cost
+//   fibers_driven: fibers clamped at the root and at node 16, their tips
+//          clamped on one oscillating motion: driven holds (with
+//          Kelvin–Voigt, the scalar delta-form solve)
+//   fibers_drag: fibers with linear drag in a still fluid
+//   fibers_wind: fibers with linear and quadratic drag and buoyancy in a
+//          wind of 5 m/s with a 16-mode turbulent part
 #pragma once
 
 #include <cstdint>
@@ -26,6 +34,8 @@ namespace manyrods::bench {
 struct Scene {
   std::vector<RodSpec> rods;
   Vec3 gravity{0, 0, -9.81};
+  bool has_fluid = false;
+  Fluid fluid;
 };
 
 inline RodSpec hair_strand(double x, double y, bool kv) {
@@ -66,9 +76,38 @@ inline Scene make_scene(const std::string& name, bool kv, int rods_override = -1
   } else if (name == "cable") {
     const int R = rods_override > 0 ? rods_override : 1000;
     for (int i = 0; i < R; ++i) sc.rods.push_back(seed_rod(0.02 * (i % 32), 0.02 * (i / 32), 0.3, 100, kv));
-  } else if (name == "fibers") {
+  } else if (name.rfind("fibers", 0) == 0) {
     const int R = rods_override > 0 ? rods_override : 1000;
-    for (int i = 0; i < R; ++i) sc.rods.push_back(seed_rod(0.02 * (i % 32), 0.02 * (i / 32), 0.3, 32, kv));
+    std::shared_ptr<OscillatingMotion> tip;
+    if (name == "fibers_driven") {
+      tip = std::make_shared<OscillatingMotion>();
+      tip->translation_amplitude = {0, 0.01, 0};
+      tip->frequency = 2;
+    }
+    for (int i = 0; i < R; ++i) {
+      sc.rods.push_back(seed_rod(0.02 * (i % 32), 0.02 * (i / 32), 0.3, 32, kv));
+      RodSpec& r = sc.rods.back();
+      if (name == "fibers_pinned") {
+        r.clamped_root = false;
+        r.pinned_root = r.pinned_tip = true;
+      } else if (name == "fibers_driven") {
+        r.holds.push_back({16, HoldKind::clamped, nullptr});
+        r.clamped_tip = true;
+        r.tip_motion = tip;
+      } else if (name == "fibers_drag" || name == "fibers_wind") {
+        r.drag.normal = 0.5;
+        r.drag.tangential = 0.25;
+        if (name == "fibers_wind") r.drag.cd_normal = 1.2;
+      }
+    }
+    if (name == "fibers_drag" || name == "fibers_wind") sc.has_fluid = true;
+    if (name == "fibers_wind") {
+      sc.fluid.density = 1.2;
+      sc.fluid.velocity = {0, 5, 0};
+      sc.fluid.turbulence.intensity = 1;
+      sc.fluid.turbulence.length_scale = 0.2;
+      sc.fluid.turbulence.time_scale = 0.5;
+    }
   } else if (name == "long") {
     sc.rods.push_back(seed_rod(0, 0, 10.0, 10000, kv));
   } else if (name == "mixed") {
