@@ -159,7 +159,8 @@ void set_fluid(RodBatch<T>& b, const Fluid& fluid) {
   if (!f.on) return;
   const std::size_t n = std::size_t(b.slots());
   for (Array<T>* a : {&f.node_cn, &f.node_ct, &f.node_qn, &f.node_qt, &f.node_buoyancy, &f.node_half_left,
-                      &f.node_half_right, &f.node_v_saved[0], &f.node_v_saved[1], &f.node_v_saved[2]})
+                      &f.node_half_right, &f.node_v_saved[0], &f.node_v_saved[1], &f.node_v_saved[2], &f.node_wind[0], &f.node_wind[1],
+                      &f.node_wind[2]})
     a->resize(n, T(0));
   for (const RodInfo& r : b.rods) {
     const Drag& d = r.drag;

@@ -33,7 +33,10 @@ FluidView<T> fluid_arrays(FluidData<T>& fd) {
   f.buoyancy = fd.node_buoyancy.data();
   f.half_left = fd.node_half_left.data();
   f.half_right = fd.node_half_right.data();
-  for (int d = 0; d < 3; ++d) f.saved[d] = fd.node_v_saved[d].data();
+  for (int d = 0; d < 3; ++d) {
+    f.saved[d] = fd.node_v_saved[d].data();
+    f.wind[d] = fd.node_wind[d].data();
+  }
   return f;
 }
 }  // namespace detail
@@ -76,6 +79,14 @@ void fluid_stage(RodBatch<T>& b, T h, double t, bool gravity, const Exec& ex, co
   f.gravity = g;
   f.modes = modes;
   f.mode_count = count;
+  if (count > 0) {  // the turbulent wind at the nodes, mode by mode
+    const StateView<T> s = b.state_view();
+    launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { fluid_mean(k, f); });
+    for (int i = 0; i < count; ++i) {
+      const T* p = modes + 7 * i;
+      launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { fluid_mode(k, p, f, s); });
+    }
+  }
   const unsigned which = unsigned(fd.linear) | unsigned(fd.quadratic) << 1 | unsigned(with_gravity) << 2 |
                          unsigned(count > 0) << 3;
   // the 16 combinations of FluidTerms, each compiled once

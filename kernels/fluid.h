@@ -26,11 +26,15 @@
 //
 // The fluid velocity U(x, t) = Ū(t) + Σ_m a_m sin(k_m·x + c_m(t)): the host
 // gives Ū and each mode's k, a and phase c_m(t) = −k_m·X(t) + ω_m t + φ_m,
-// X(t) = ∫₀ᵗ Ū dt, for the time of the kick.
+// X(t) = ∫₀ᵗ Ū dt, for the time of the kick; with turbulence it sums the
+// field at the nodes first (fluid_mean, then fluid_mode once per mode).
 //
 // reads: node_x, node_v, elem_Q (elements k−1, k), node_inv_mass, the fluid
 // arrays  writes: node_v (node k), the saved velocity
 #pragma once
+
+#include <cstdint>
+#include <cstring>
 
 #include "kernels/views.h"
 
@@ -52,6 +56,7 @@ template <class T>
 struct FluidView {
   const T *cn, *ct, *qn, *qt, *buoyancy, *half_left, *half_right;
   T* saved[3];      // v before the kick
+  T* wind[3];       // U at the nodes, with the turbulent part (fluid_mean, fluid_mode)
   vec3<T> mean;     // Ū at the kick's time, m/s
   vec3<T> gravity;  // g (0 when the step has no gravity), m/s²
   const T* modes;   // 7 per mode: k (3), a (3), phase c_m
@@ -77,24 +82,67 @@ MANYRODS_HD inline T fluid_sin(T x) {
          r2 * (T(1.0 / 355687428096000) - r2 * T(1.0 / 121645100408832000))))))))));
 }
 
+// One turbulent mode added to the fluid velocity at node k (the host
+// launches this once per mode, so that each launch is a plain vectorizable
+// loop over the nodes): u += a sin(k·x + c), p = the mode's 7 values.
 template <class T>
-MANYRODS_HD inline vec3<T> fluid_velocity(vec3<T> x, const FluidView<T>& f) {
-  vec3<T> u = f.mean;
-  for (int i = 0; i < f.mode_count; ++i) {
-    const T* p = f.modes + 7 * i;
-    const T s = fluid_sin(p[0] * x.x + p[1] * x.y + p[2] * x.z + p[6]);
-    u = u + s * vec3<T>{p[3], p[4], p[5]};
-  }
-  return u;
+MANYRODS_HD inline void fluid_mode(int k, const T* p, const FluidView<T>& f, const StateView<T>& s) {
+  const T w = fluid_sin(p[0] * s.node_x[0][k] + p[1] * s.node_x[1][k] + p[2] * s.node_x[2][k] + p[6]);
+  for (int d = 0; d < 3; ++d) f.wind[d][k] += w * p[3 + d];
+}
+template <class T>
+MANYRODS_HD inline void fluid_mean(int k, const FluidView<T>& f) {
+  f.wind[0][k] = f.mean.x;
+  f.wind[1][k] = f.mean.y;
+  f.wind[2][k] = f.mean.z;
+}
+
+// e^{−z} for z ≥ 0 without a library call (so that the node loop
+// vectorizes): z = k ln 2 + r, |r| ≤ ½ ln 2, e^{−r} by its Taylor series
+// (to r¹² in double, truncation < 2e-16; to r⁷ in float, < 4e-8), times
+// 2^{−k} built in the exponent bits (2^52 + ½ rounds to the integer k in the
+// low bits: integer lane operations only). z is capped where e^{−z} is below
+// the smallest normal number; returns 0 beyond.
+MANYRODS_HD inline double exp_neg(double z) {
+  const double zc = z < 700.0 ? z : 700.0;
+  const double shifter = 6755399441055744.0;  // 1.5·2^52: adding it rounds to an integer in the low bits
+  const double kd = zc * 1.4426950408889634 + shifter;
+  const double k = kd - shifter;
+  const double r = (zc - k * 0.6931471803691238) - k * 1.9082149292705877e-10;  // ln 2, hi + lo
+  double p = 1.0 / 479001600.0;  // 1/12!
+  const double c[12] = {1.0 / 39916800.0, 1.0 / 3628800.0, 1.0 / 362880.0, 1.0 / 40320.0, 1.0 / 5040.0, 1.0 / 720.0,
+                        1.0 / 120.0,      1.0 / 24.0,      1.0 / 6.0,     0.5,           1.0,          1.0};
+  for (int i = 0; i < 12; ++i) p = p * (-r) + c[i];  // Σ (−r)^j / j!
+  std::uint64_t kb;
+  std::memcpy(&kb, &kd, 8);
+  const std::uint64_t bits = (std::uint64_t(1023) - (kb & 0x7ffull)) << 52;  // 2^{−k}, k ≤ 1010
+  double scale;
+  std::memcpy(&scale, &bits, 8);
+  return z < 700.0 ? p * scale : 0.0;
+}
+MANYRODS_HD inline float exp_neg(float z) {
+  const float zc = z < 80.f ? z : 80.f;
+  const float shifter = 12582912.f;  // 1.5·2^23
+  const float kd = zc * 1.44269504f + shifter;
+  const float k = kd - shifter;
+  const float r = (zc - k * 0.693145752f) - k * 1.42860677e-6f;
+  float p = 1.f / 5040.f;
+  const float c[7] = {1.f / 720.f, 1.f / 120.f, 1.f / 24.f, 1.f / 6.f, 0.5f, 1.f, 1.f};
+  for (int i = 0; i < 7; ++i) p = p * (-r) + c[i];
+  std::uint32_t kb;
+  std::memcpy(&kb, &kd, 4);
+  const std::uint32_t bits = (std::uint32_t(127) - (kb & 0x7fu)) << 23;  // 2^{−k}, k ≤ 116
+  float scale;
+  std::memcpy(&scale, &bits, 4);
+  return z < 80.f ? p * scale : 0.f;
 }
 
 // exp(−λτ) and φ(λ, τ) = (1 − e^{−λτ})/λ; for λτ < 1e-3 φ by its series
 // (truncation (λτ)⁴/120 < 1e-14 relative), so that no expm1 is needed.
 template <class T>
 MANYRODS_HD inline void decay(T lambda, T tau, T& e, T& phi) {
-  using std::exp;
   const T z = lambda * tau;
-  e = exp(-z);
+  e = exp_neg(z);
   const T series = tau * (T(1) - z * (T(0.5) - z * (T(1.0 / 6.0) - z * T(1.0 / 24.0))));
   phi = z > T(1e-3) ? (T(1) - e) / lambda : series;
 }
@@ -111,8 +159,7 @@ MANYRODS_HD inline void fluid_node(int k, T h, const FluidView<T>& f, const Mode
   const vec3<T> v{f.saved[0][k], f.saved[1][k], f.saved[2][k]};
   vec3<T> a = (T(1) / h) * (vk - v);
   if constexpr (kF.buoyancy) a = a + (-im * f.buoyancy[k]) * f.gravity;
-  const vec3<T> x = load3(s.node_x, k);
-  const vec3<T> u = kF.turbulence ? fluid_velocity(x, f) : f.mean;
+  const vec3<T> u = kF.turbulence ? vec3<T>{f.wind[0][k], f.wind[1][k], f.wind[2][k]} : f.mean;
   // tangent: the half elements' d3, weighted by length
   const vec3<T> d3l{s.elem_Q[6][k - 1], s.elem_Q[7][k - 1], s.elem_Q[8][k - 1]};
   const vec3<T> d3r{s.elem_Q[6][k], s.elem_Q[7][k], s.elem_Q[8][k]};

@@ -204,6 +204,7 @@ struct FluidData {
   Array<T> node_buoyancy;      // kg: ρ_f A ℓ
   Array<T> node_half_left, node_half_right;  // m: l̂_{k−1}/2, l̂_k/2 (0 off the rod)
   std::array<Array<T>, 3> node_v_saved;      // m/s: the velocities before the kick (scratch)
+  std::array<Array<T>, 3> node_wind;         // m/s: the wind at the nodes, with turbulence (scratch)
 };
 
 // One field of the lists in include/manyrods/fields.h: one array, or one
