@@ -10,9 +10,9 @@
 //   2. strains and total resultants at (x, Q)_{n+½} with the
 //      rates from (v, ω)_n                                     compute_resultants
 //   3. kick h:    v += h m⁻¹ F,  ω += h J⁻¹ C                  segment_kick
-//      (a fluid) the kick redone with drag, buoyancy and wind
-//      as an exact flow (v saved before the kick)             fluid_save_stage, fluid_stage
+//      (a fluid) v saved before the kick                       fluid_save_stage
 //   4. (M + hD) u⁺ = M u for damped and stiff rods             viscous_update
+//   4b. (a fluid) kick and solve redone with the drag as an exact flow  fluid_stage
 //   4a. (contact Terms) [broad phase,] contact impulses          contact_stage
 //   5. drift ½h                                                drift
 //   6. (float) frames renormalized every 16th step            renormalize_frames
@@ -97,9 +97,12 @@ void verlet_before_contact(RodBatch<T>& b, T dt, double t, bool solve, const Exe
   const bool fluid = b.any_fluid();
   if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_save_stage(b, e, r); });
   timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
-  if (fluid)  // (the kick's time: the middle of the step)
-    timed(e, thread, Stage::fluid, [&] { fluid_stage(b, dt, t + 0.5 * double(dt), kT.gravity, e, r); });
   if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+  // after the solve: a stiff rod's kick leaves its unresolved stiff modes in
+  // the velocities, which the drag's decay must not scale (the solve would
+  // then no longer cancel them); the velocity update of kick and solve
+  // together is the drag flow's frozen forcing (the kick's time: mid-step)
+  if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_stage(b, dt, t + 0.5 * double(dt), kT.gravity, e, r); });
 }
 template <class T>
 void verlet_after_contact(RodBatch<T>& b, T dt, std::int64_t done, const Exec& e, const Segment& r, int thread) {

@@ -21,8 +21,11 @@
 // is the map with −h), so Position Verlet stays symmetric and second order
 // with linear drag; the frozen quadratic rate makes that part first order.
 // The host saves v before the kick (fluid_save) and applies the update after
-// it (fluid_node), recovering h a = v_kick − v_before, exactly the increment
-// the kick rounded. Held nodes (m⁻¹ = 0) keep their velocity.
+// the kick and the implicit solve (fluid_node), recovering h a = v_after −
+// v_before, exactly the increment they rounded (for damped and stiff rods a
+// then includes the solve's viscous and stiff forces: after the solve, so
+// that a stiff rod's unresolved modes, which the solve removes, are never
+// scaled by the decay). Held nodes (m⁻¹ = 0) keep their velocity.
 //
 // The fluid velocity U(x, t) = Ū(t) + Σ_m a_m sin(k_m·x + c_m(t)): the host
 // gives Ū and each mode's k, a and phase c_m(t) = −k_m·X(t) + ω_m t + φ_m,
