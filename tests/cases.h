@@ -2,7 +2,9 @@
 // cantilever and human hair", built once for all tests.
 #pragma once
 
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <vector>
 
@@ -74,6 +76,30 @@ inline double max_element_strain(const RodBatch<double>& b, int rod) {
     if (!(n <= worst)) worst = n;  // NaN propagates
   }
   return worst;
+}
+
+// Self-convergence in time: run(h) gives node positions at `frames` equal
+// frames over T; the step is h_max rounded down so that every frame is a
+// whole number of steps at h, h/2, h/4 and h/32, and the errors of the
+// first three against h/32 (whose own error shifts a measured second order
+// by < 0.01) are returned.
+template <class Run>
+std::array<double, 3> time_errors(double h_max, double T, int frames, Run run) {
+  const double h0 = T / frames / std::ceil(T / frames / h_max);
+  const std::vector<Vec3> ref = run(h0 / 32);
+  std::array<double, 3> err{};
+  for (int i = 0; i < 3; ++i) err[i] = max_distance(run(h0 / (1 << i)), ref);
+  return err;
+}
+// The orders between consecutive errors of time_errors, printed with `what`.
+inline std::array<double, 2> time_orders(const std::array<double, 3>& err, const char* what) {
+  std::array<double, 2> o{};
+  for (int i = 0; i + 1 < 3; ++i) {
+    o[i] = std::log2(err[i] / err[i + 1]);
+    std::printf("%s: error %.3e m at h/%d, %.3e m at h/%d: order %.2f\n", what, err[i], 1 << i, err[i + 1], 2 << i,
+                o[i]);
+  }
+  return o;
 }
 
 }  // namespace manyrods::cases

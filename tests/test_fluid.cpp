@@ -237,18 +237,8 @@ std::vector<Vec3> windy(double h, double T, int frames) {
 
 TEST(Fluid, LinearDragKeepsPositionVerletSecondOrder) {
   const double h = 0.5 * stable_dt(build_batch<double>({cases::seed_cantilever(16)})).elastic;
-  const double T = 0.2;
-  const int frames = 8;
-  const double h0 = T / frames / std::ceil(T / frames / h);
-  const std::vector<Vec3> ref = windy(h0 / 32, T, frames);
-  double err[3];
-  for (int i = 0; i < 3; ++i) err[i] = cases::max_distance(windy(h0 / (1 << i), T, frames), ref);
-  for (int i = 0; i + 1 < 3; ++i) {
-    const double order = std::log2(err[i] / err[i + 1]);
-    std::printf("cantilever in wind with drag: error %.3e m at h/%d, %.3e m at h/%d: order %.2f\n", err[i], 1 << i,
-                err[i + 1], 2 << i, order);
-    EXPECT_NEAR(order, 2.0, 0.15);
-  }
+  const auto err = cases::time_errors(h, 0.2, 8, [](double dt) { return windy(dt, 0.2, 8); });
+  for (double o : cases::time_orders(err, "cantilever in wind with drag")) EXPECT_NEAR(o, 2.0, 0.15);
 }
 
 TEST(Fluid, BadFluidsAndCoefficientsAreNamed) {
