@@ -347,7 +347,8 @@ TEST(Constraints, ClampedInteriorNodeHoldsTwoCantilevers) {
 TEST(Constraints, HeldRodsAreBitIdenticalForAnyThreadCountAndChunking) {
   // pinned ends, interior holds, a damped rod with a driven tip (the scalar
   // delta-form solve), a stiff rod whose only hold is a driven tip (the
-  // lane solve relative to that motion), a plain damped rod (lanes)
+  // lane solve relative to that motion), a plain damped rod (lanes), all
+  // in a turbulent wind
   auto motion = std::make_shared<OscillatingMotion>();
   motion->translation_amplitude = {0.0, 0.01, 0.0};
   motion->frequency = 2;
@@ -369,7 +370,16 @@ TEST(Constraints, HeldRodsAreBitIdenticalForAnyThreadCountAndChunking) {
   stiff.clamped_tip = true;
   stiff.tip_motion = motion;
   rods.push_back(stiff);
+  for (RodSpec& r : rods) r.drag = {0.05, 0.02, 1.0, 0.01, true};  // in wind, too
   RodBatch<double> a = build_batch<double>(rods, {0, 0, -9.81});
+  Fluid wind;
+  wind.density = 1.2;
+  wind.times = {0, 1e-4};
+  wind.velocities = {{0, 0, 0}, {1, 2, 0}};
+  wind.turbulence.intensity = 0.5;
+  wind.turbulence.length_scale = 0.1;
+  wind.turbulence.time_scale = 0.2;
+  set_fluid(a, wind);
   RodBatch<double> c = a;
   const double dt = 1e-5;
   for (int i = 0; i < 40; ++i) step<kAllTerms>(a, dt, Exec{1});

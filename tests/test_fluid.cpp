@@ -66,6 +66,24 @@ TEST(Fluid, LinearDragGivesTheTerminalVelocityAtAnyStep) {
   EXPECT_NEAR(fall(s, water, 0.2), -(1000 - 400) * kPi * 1e-4 * g / 1e4, 1e-9 * rhoA * g / 1e4);
 }
 
+TEST(Fluid, FloatBatchesReachTheSameTerminalVelocity) {
+  // the fluid stage in float (its own e^{−z} to 1.2e-7): the fixed point to
+  // float's round-off
+  RodSpec s = free_rod({1, 0, 0});
+  s.drag.normal = 1e4;
+  s.drag.cd_normal = 1.2;
+  Fluid air;
+  air.density = 1.2;
+  RodBatch<float> b = build_batch<float>({s}, {0, 0, -9.81});
+  set_fluid(b, air);
+  const float dt = 0.5f * float(stable_dt(b).elastic);
+  advance<kNoKelvinVoigt>(b, dt, std::int64_t(0.2 / dt));
+  // c⊥v + ½ρC d v² = (ρ − ρ_f) A g per length
+  const double w = (1000 - 1.2) * kPi * 1e-4 * 9.81, q = 0.5 * 1.2 * 1.2 * 0.02;
+  const double v = (-1e4 + std::sqrt(1e8 + 4 * q * w)) / (2 * q);
+  for (int j = 0; j <= s.elements(); ++j) EXPECT_NEAR(-b.velocity(0, j)[2], v, 1e-5 * v) << "node " << j;
+}
+
 TEST(Fluid, QuadraticDragGivesTheTerminalVelocity) {
   // Broadside, v = sqrt(2 m g/(ρ_f C⊥ d L)), buoyancy off (so that the
   // law is the issue's). Reached after ~10 drag times (2v/g ≈ 0.1 s).
