@@ -402,9 +402,6 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
   info.elements = s.elements();
   info.clamped_root = s.clamped_root;
   info.clamped_tip = s.clamped_tip;
-  info.pinned_root = s.pinned_root;
-  info.pinned_tip = s.pinned_tip;
-  info.holds = int(s.holds.size());
   info.stiff_implicit = s.stiff_implicit;
   info.drag = s.drag;
   int held = int(s.holds.size()) + (s.clamped_root || s.pinned_root) + (s.clamped_tip || s.pinned_tip);
@@ -412,11 +409,12 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
   for (const NodeHold& h : s.holds) driven += h.motion != nullptr;
   info.driven = driven > 0;
   // the implicit solve runs relative to the reference hold's rigid motion (a
-  // driven root; else a stiff rod's one driven hold): every other held
-  // unknown must then have its prescribed velocity kept, which the scalar
-  // kernel's delta form does exactly and the direct form does not
-  const bool reference = s.root_motion != nullptr || (s.stiff_implicit && driven == 1 && held == 1);
-  info.prescribed = driven > 0 && held > (reference ? 1 : 0);
+  // driven root; else a stiff rod's only hold, driven, at its tip): every
+  // other held unknown must then have its prescribed velocity kept, which
+  // the scalar kernel's delta form does exactly and the direct form does not
+  info.driven_reference =
+      s.root_motion != nullptr || (s.stiff_implicit && driven == 1 && held == 1 && s.holds.empty());
+  info.prescribed = driven > 0 && held > (info.driven_reference ? 1 : 0);
   try {
     validate_rod(s);
     info.elastic = resolve_material(s.material);
@@ -424,12 +422,12 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
     info.contact_radius = contact_radius(s.section);
     info.tau = resolve_damping(s.damping, info.elastic);
     info.damped = info.tau.shear > 0 || info.tau.extension > 0;
+    if (s.stiff_implicit && driven == 1 && held == 1 && s.holds.size() == 1)
+      fail("holds: a stiff rod's single driven hold must be at the root or the tip, not an interior node");
     if (s.stiff_implicit && info.prescribed)
       fail(std::string("holds: a stiff rod's holds must all be static, or be a single driven hold at the root "
                        "or the tip (its implicit solve runs relative to that one motion); this rod has ") +
            std::to_string(held) + " held nodes, " + std::to_string(driven) + " of them driven");
-    if (s.stiff_implicit && driven == 1 && held == 1 && s.holds.size() == 1)
-      fail("holds: a stiff rod's single driven hold must be at the root or the tip, not an interior node");
   } catch (const InputError& e) {
     throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
   }
@@ -514,10 +512,9 @@ void collect_driven(RodBatch<T>& b, const std::vector<RodSpec>& specs) {
       d.q0[0] = s.tip_frame ? *s.tip_frame : s.frames[n - 1];
       b.driven.push_back(d);
     }
-    // the reference of the implicit solve (RodInfo::prescribed): a driven
-    // root, else the single driven hold of a stiff rod, at its root or tip
-    // (resolve_rod refuses the other cases)
-    if (b.driven.size() > first && (s.root_motion || s.stiff_implicit)) b.driven[first].reference = true;
+    // the reference of the implicit solve (RodInfo::driven_reference): the
+    // rod's first driven hold, its root or its only one
+    if (b.driven.size() > first && info.driven_reference) b.driven[first].reference = true;
   }
   for (Segment& seg : b.segments) {
     auto by_rod = [](const DrivenHold& d, int rod) { return d.rod < rod; };

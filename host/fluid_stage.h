@@ -77,8 +77,6 @@ void fluid_stage(RodBatch<T>& b, T h, double t, bool gravity, const Exec& ex, co
   FluidView<T> f = detail::fluid_arrays(fd);
   f.mean = vec3<T>{T(mean[0]), T(mean[1]), T(mean[2])};
   f.gravity = g;
-  f.modes = modes;
-  f.mode_count = count;
   if (count > 0) {  // the turbulent wind at the nodes, mode by mode
     const StateView<T> s = b.state_view();
     launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { fluid_mean(k, f); });

@@ -37,7 +37,7 @@ namespace detail {
 // velocities: the scalar kernel's delta form solves their rods
 // (RodInfo::prescribed).
 template <class T>
-void shift_driven_roots(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
+void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
   const StateView<T> s = b.state_view();
   for (int i = r.driven_begin; i < r.driven_end; ++i) {
     const DrivenHold& d = b.driven[i];
@@ -95,7 +95,7 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
   const bool driven = r.driven_end > r.driven_begin;  // (a scene without them skips both passes)
-  if (driven) detail::shift_driven_roots(b, r, kT.kelvin_voigt, T(-1));
+  if (driven) detail::shift_reference_holds(b, r, kT.kelvin_voigt, T(-1));
   // One compiled copy of the kernels for both branches below (not inlined
   // twice: two copies may contract a·b + c into FMAs differently, and the
   // results would then depend on the branch, i.e. on the thread count).
@@ -130,7 +130,7 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
   } else {
     for (int g = g0; g < g1; ++g) solve(g, thread);
   }
-  if (driven) detail::shift_driven_roots(b, r, kT.kelvin_voigt, T(1));
+  if (driven) detail::shift_reference_holds(b, r, kT.kelvin_voigt, T(1));
 }
 
 // The implicit stage on the whole batch (every segment).

@@ -251,6 +251,14 @@ std::vector<const char*> with_keys(std::initializer_list<const char*> base, cons
   return v;
 }
 
+// Every key a motion table may have, whatever its kind (parse_motion checks
+// each kind's own): for a hold's table before its motion is parsed.
+const std::vector<const char*> kMotionKeys = {
+    "motion", "translation_amplitude", "rotation_axis", "rotation_amplitude", "frequency", "phase",
+    "ramp_time", "pivot", "times", "translations", "rotations", "translation", "rotation", "start_time",
+    "duration", "profile"};
+std::vector<const char*> with_motion_keys(std::initializer_list<const char*> base) { return with_keys(base, kMotionKeys); }
+
 // A rigid motion table (motion = "oscillate" | "keyframes" | "ramp"; angles
 // in degrees), as a driven hold's table and a collider's `motion`. `extra`:
 // the other keys the table may have (a hold's kind, node).
@@ -358,11 +366,9 @@ Root parse_hold_table(const Table& g, const char* key, const std::vector<const c
   std::vector<const char*> keys = extra;
   keys.push_back("kind");
   if (t.contains("kind")) {
-    const Table k(g.ctx, t, g.key(key), with_keys({"kind", "motion", "translation_amplitude", "rotation_axis",
-                                                   "rotation_amplitude", "frequency", "phase", "ramp_time",
-                                                   "pivot", "times", "translations", "rotations", "translation",
-                                                   "rotation", "start_time", "duration", "profile"},
-                                                  extra));
+    std::vector<const char*> all = with_motion_keys({"kind"});
+    all.insert(all.end(), extra.begin(), extra.end());
+    const Table k(g.ctx, t, g.key(key), all);
     const std::string kind = k.string("kind", {"clamped", "pinned"});
     r.clamped = kind == "clamped";
     r.pinned = kind == "pinned";
@@ -951,10 +957,7 @@ void parse_group_ends(const Table& g, Pending& p) {
       wrap.insert(std::to_string(i), ct);
       const Table w(g.ctx, wrap, g.key("constraints"), {std::to_string(i).c_str()});
       const std::string idx = std::to_string(i);
-      const Table c(g.ctx, ct, path, with_keys({"node", "kind"}, {"motion", "translation_amplitude", "rotation_axis",
-                                               "rotation_amplitude", "frequency", "phase", "ramp_time", "pivot",
-                                               "times", "translations", "rotations", "translation", "rotation",
-                                               "start_time", "duration", "profile"}));
+      const Table c(g.ctx, ct, path, with_motion_keys({"node", "kind"}));
       NodeHold h;
       h.node = int(c.integer("node", 0, std::numeric_limits<int>::max()));
       if (h.node == 0) c.fail("node", "node 0 is the root: hold it with the group's root key");

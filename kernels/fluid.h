@@ -62,8 +62,6 @@ struct FluidView {
   T* wind[3];       // U at the nodes, with the turbulent part (fluid_mean, fluid_mode)
   vec3<T> mean;     // Ū at the kick's time, m/s
   vec3<T> gravity;  // g (0 when the step has no gravity), m/s²
-  const T* modes;   // 7 per mode: k (3), a (3), phase c_m
-  int mode_count;
 };
 
 // sin x without a library call, so that the modes' loop vectorizes:
@@ -103,8 +101,8 @@ MANYRODS_HD inline void fluid_mean(int k, const FluidView<T>& f) {
 // e^{−z} for z ≥ 0 without a library call (so that the node loop
 // vectorizes): z = k ln 2 + r, |r| ≤ ½ ln 2, e^{−r} by its Taylor series
 // (to r¹² in double, truncation < 2e-16; to r⁷ in float, < 4e-8), times
-// 2^{−k} built in the exponent bits (2^52 + ½ rounds to the integer k in the
-// low bits: integer lane operations only). z is capped where e^{−z} is below
+// 2^{−k} built in the exponent bits (adding 1.5·2^52 rounds z/ln 2 to the
+// integer k in the low mantissa bits: integer lane operations only). z is capped where e^{−z} is below
 // the smallest normal number; returns 0 beyond.
 MANYRODS_HD inline double exp_neg(double z) {
   const double zc = z < 700.0 ? z : 700.0;

@@ -173,9 +173,6 @@ struct RodInfo {
   int offset = 0;  // o_r, first slot
   bool clamped_root = false;
   bool clamped_tip = false;
-  bool pinned_root = false;
-  bool pinned_tip = false;
-  int holds = 0;                // interior held nodes (RodSpec::holds)
   bool stiff_implicit = false;  // RodSpec::stiff_implicit
   bool damped = false;          // some retardation time > 0
   bool driven = false;          // some hold on a motion (entries of RodBatch::driven)
@@ -183,6 +180,9 @@ struct RodInfo {
   // reference hold (DrivenHold::reference): its implicit solve is the scalar
   // kernel's delta form (host/implicit_plan.cpp), which keeps them exactly
   bool prescribed = false;
+  // its first driven hold is the reference of the implicit solve
+  // (DrivenHold::reference): a driven root, or a stiff rod's only hold
+  bool driven_reference = false;
   ElasticConstants elastic{};
   SectionProperties section{};
   RetardationTimes tau{};
