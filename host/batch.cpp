@@ -191,7 +191,7 @@ void allocate_field(Array<T>& a, std::size_t slots, Fill fill) {
 }
 template <class T, std::size_t N, class Fill>
 void allocate_field(std::array<Array<T>, N>& a, std::size_t slots, Fill fill) {
-  for (std::size_t i = 0; i < N; ++i) a[i].resize(slots, T(fill(int(i))));
+  Array<T>::resize_components(a, slots, [&](int i) { return T(fill(i)); });
 }
 template <class T>
 std::size_t field_bytes(const Array<T>& a) {

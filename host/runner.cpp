@@ -14,48 +14,18 @@
 #include <optional>
 #include <type_traits>
 
+#include "host/state_bytes.h"
 #include "host/validity.h"
 #include "manyrods/scene.h"
 
 namespace manyrods::scene {
 namespace {
 
-std::int64_t round_up(std::int64_t s, std::int64_t m) { return (s / m + 1) * m; }
+using detail::field_size;
+using detail::from_bytes;
+using detail::to_bytes;
 
-// A state field (one array or one per component) as raw bytes and back.
-template <class T>
-std::size_t field_size(const Array<T>& a) {
-  return a.size() * sizeof(T);
-}
-template <class T, std::size_t N>
-std::size_t field_size(const std::array<Array<T>, N>& a) {
-  return N * a[0].size() * sizeof(T);
-}
-template <class T>
-void to_bytes(const Array<T>& a, std::vector<unsigned char>& out) {
-  const auto* p = reinterpret_cast<const unsigned char*>(a.data());
-  out.assign(p, p + a.size() * sizeof(T));
-}
-template <class T>
-void from_bytes(Array<T>& a, const std::vector<unsigned char>& in) {
-  std::memcpy(a.data(), in.data(), a.size() * sizeof(T));
-}
-template <class T, std::size_t N>
-void to_bytes(const std::array<Array<T>, N>& a, std::vector<unsigned char>& out) {
-  out.clear();
-  for (const Array<T>& x : a) {
-    const auto* p = reinterpret_cast<const unsigned char*>(x.data());
-    out.insert(out.end(), p, p + x.size() * sizeof(T));
-  }
-}
-template <class T, std::size_t N>
-void from_bytes(std::array<Array<T>, N>& a, const std::vector<unsigned char>& in) {
-  std::size_t off = 0;
-  for (Array<T>& x : a) {
-    std::memcpy(x.data(), in.data() + off, x.size() * sizeof(T));
-    off += x.size() * sizeof(T);
-  }
-}
+std::int64_t round_up(std::int64_t s, std::int64_t m) { return (s / m + 1) * m; }
 
 std::string eta(double s) {
   char buf[32];
@@ -233,20 +203,16 @@ class SceneRun {
   }
 
   h5::Layout layout() const {
-    h5::Layout l;
-    l.float32 = std::is_same_v<T, float>;
-    l.directors = s_.sim.output_directors;
-    l.contact = s_.has_contact;
-    l.node_offsets.push_back(0);
-    l.element_offsets.push_back(0);
+    std::vector<std::int32_t> group;
+    std::vector<double> width;
     for (int r = 0; r < b_.rod_count(); ++r) {
-      l.node_offsets.push_back(l.node_offsets.back() + b_.elements(r) + 1);
-      l.element_offsets.push_back(l.element_offsets.back() + b_.elements(r));
-      l.rod_group.push_back(s_.rod_group[r]);
-      l.rod_width.push_back(s_.groups[s_.rod_group[r]].width);
+      group.push_back(s_.rod_group[r]);
+      width.push_back(s_.groups[s_.rod_group[r]].width);
     }
-    for (const RodGroup& g : s_.groups) l.group_names.push_back(g.name);
-    return l;
+    std::vector<std::string> names;
+    for (const RodGroup& g : s_.groups) names.push_back(g.name);
+    return detail::frame_layout(b_, std::move(group), std::move(width), std::move(names), s_.sim.output_directors,
+                                s_.has_contact);
   }
 
   // Each probe's tip, strain maximum and dissipation integral at this sample point.
@@ -384,11 +350,8 @@ class SceneRun {
 
   h5::Checkpoint checkpoint(const h5::Writer& w) const {
     h5::Checkpoint c;
-    c.float32 = std::is_same_v<T, float>;
-    c.slots = b_.slots();
-    c.time = b_.state.time;
+    detail::save_state(b_, c);
     c.dt = res_.dt;
-    c.steps = b_.state.steps;
     c.dissipated = dissipated_;
     c.last_rate = last_rate_;
     c.frames_written = frames_before_ + w.frames();
@@ -398,11 +361,6 @@ class SceneRun {
     }
     c.scene_text = s_.text;
     c.scene_source = s_.source;
-#define MANYRODS_SAVE(name, n, fill, float_only, doc) \
-  if (field_size(b_.state.name) > 0) to_bytes(b_.state.name, c.name);
-    MANYRODS_STATE_FIELDS(MANYRODS_SAVE)
-#undef MANYRODS_SAVE
-    if (b_.contact.on) to_bytes(b_.contact.work, c.contact_work);
     if (probes_.empty()) return c;
     c.probe_count = std::int64_t(probes_.size());
     c.probe_samples = std::int64_t(probes_[0].time.size());

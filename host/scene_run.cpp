@@ -222,21 +222,7 @@ double frame_aligned_dt(double dt, double interval) {
 
 template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b) {
-  const StepChoice c = step_choice(s);
-  // contact does not limit it: the same Terms without contact (the ones the
-  // library instantiates stable_dt for; `false` alone leaves the contact
-  // instantiations referenced where the compiler does not fold it away)
-  const StableDt sd = with_terms(
-      c,
-      [&]<Terms kT>() {
-        constexpr Terms k = [] {
-          Terms t = kT;
-          t.colliders = t.rod_contact = false;
-          return t;
-        }();
-        return stable_dt<k>(b);
-      },
-      false);
+  const StableDt sd = scene_stable_dt(b, step_choice(s));
   const bool finite = std::isfinite(sd.elastic) && sd.elastic > 0;
   if (s.sim.dt_auto && !finite)
     throw SceneError(s.source +
@@ -272,6 +258,40 @@ void advance_scene(RodBatch<T>& b, const StepChoice& c, T dt, std::int64_t steps
 template <class T>
 Energies scene_energies(const RodBatch<T>& b, const StepChoice& c, int rod) {
   return with_terms(c, [&]<Terms kT>() { return energies<kT>(b, rod); });
+}
+
+template <class T>
+StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c) {
+  // contact does not limit it: the same Terms without contact (the ones the
+  // library instantiates stable_dt for; `false` alone leaves the contact
+  // instantiations referenced where the compiler does not fold it away)
+  return with_terms(
+      c,
+      [&]<Terms kT>() {
+        constexpr Terms k = [] {
+          Terms t = kT;
+          t.colliders = t.rod_contact = false;
+          return t;
+        }();
+        return stable_dt<k>(b);
+      },
+      false);
+}
+
+StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt) {
+  if (c.colliders || c.rod_contact)
+    throw InputError("solve_static: a batch with contact has no static solve (statics knows no contact)");
+  return with_terms(
+      c,
+      [&]<Terms kT>() {
+        constexpr Terms k = [] {  // (as in scene_stable_dt)
+          Terms t = kT;
+          t.colliders = t.rod_contact = false;
+          return t;
+        }();
+        return solve_static<k>(b, opt);
+      },
+      false);
 }
 
 template <class T>
@@ -333,6 +353,7 @@ void gather_directors(const RodBatch<T>& b, std::vector<T>& out) {
   template double scene_dt<T>(const Scene&, const RodBatch<T>&);                                 \
   template void advance_scene<T>(RodBatch<T>&, const StepChoice&, T, std::int64_t, const Exec&); \
   template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);               \
+  template StableDt scene_stable_dt<T>(const RodBatch<T>&, const StepChoice&);                   \
   template double max_strain<T>(const RodBatch<T>&, int, double);                                \
   template StrainPeak strain_peak<T>(const RodBatch<T>&, int, double);                           \
   template void gather_positions<T>(const RodBatch<T>&, std::vector<T>&);                        \

@@ -249,6 +249,19 @@ std::vector<h5::Column> sweep_parameters(const Sweep& sw) {
   return cols;
 }
 
+SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart) {
+  SweepRun out;
+  opt.probes = sw.probes;
+  out.parameters = sweep_parameters(sw);
+  opt.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>& rec) {
+    out.summary = sweep_summary(sw, rec);
+    std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
+    w.write_sweep(out.parameters, out.summary, first);
+  };
+  out.run = run_scene(sw.scene, opt, restart);
+  return out;
+}
+
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec) {
   std::vector<h5::Column> c = {{"tip_deflection_initial_m", {}},
                                {"tip_deflection_max_m", {}},

@@ -212,19 +212,13 @@ int plot(const std::string& in, std::string dir) {
 // output with .csv).
 int run_sweep(const Sweep& sw, RunOptions opt, std::string csv, const h5::Checkpoint* restart) {
   if (csv.empty()) csv = fs::path(opt.output).replace_extension(".csv").string();
-  opt.probes = sw.probes;
-  const std::vector<h5::Column> params = sweep_parameters(sw);
-  std::vector<h5::Column> summary;
-  opt.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>& rec) {
-    summary = sweep_summary(sw, rec);
-    std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
-    w.write_sweep(params, summary, first);
-  };
   std::fprintf(stderr, "manyrods sweep: %zu variations, %zu rods in one batch%s\n", sw.points.size(),
                sw.scene.rods.size(), restart ? " (continued)" : "");
-  const RunResult r = run_scene(sw.scene, opt, restart);
-  write_csv(csv, params, summary);
-  summary_line(r, opt.output);
+  const std::string output = opt.output;
+  const SweepRun sr = manyrods::scene::run_sweep(sw, std::move(opt), restart);
+  const RunResult& r = sr.run;
+  write_csv(csv, sr.parameters, sr.summary);
+  summary_line(r, output);
   std::fprintf(stderr, "manyrods: sweep summary -> %s\n", csv.c_str());
   return run_status(r);
 }

@@ -280,6 +280,7 @@ void set_fluid(RodBatch<T>& b, const Fluid& fluid);
 template <class T>
 class RodBatch {
  public:
+  using value_type = T;  // float or double
   Model<T> model;
   State<T> state;
   Scratch<T> scratch;

@@ -22,6 +22,8 @@
 #include <vector>
 
 #include "manyrods/batch.h"
+#include "manyrods/stable_dt.h"
+#include "manyrods/statics.h"
 #include "manyrods/step.h"
 
 namespace manyrods::scene {
@@ -183,6 +185,14 @@ void advance_scene(RodBatch<T>& b, const StepChoice& c, T dt, std::int64_t steps
 // energies<Terms>(b, rod) with the scene's terms.
 template <class T>
 Energies scene_energies(const RodBatch<T>& b, const StepChoice& c, int rod = -1);
+
+// stable_dt<Terms>(b) with the choice's terms (contact does not limit it).
+template <class T>
+StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c);
+
+// solve_static<Terms>(b, opt) with the choice's Kelvin–Voigt and gravity
+// terms (InputError for a choice with contact: statics knows none).
+StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt = {});
 
 // Largest strain of rod `rod`: max over its elements of |σ| (shear and
 // stretch, the library's element_strain) and over its joints of

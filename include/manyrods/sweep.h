@@ -73,6 +73,15 @@ Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec);
 std::vector<h5::Column> sweep_parameters(const Sweep& sw);
 
+// Runs the sweep (new, or continued from its file's checkpoint `restart`)
+// into opt.output with /sweep (parameters, summary, each variation's first
+// rod); opt.probes and opt.before_finish are set here.
+struct SweepRun {
+  RunResult run;
+  std::vector<h5::Column> parameters, summary;
+};
+SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart = nullptr);
+
 // variation, parameters..., summary... (written to path.tmp, then renamed).
 void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
                const std::vector<h5::Column>& summary);

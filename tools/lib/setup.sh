@@ -19,6 +19,8 @@ MANYRODS_PACKAGES=(
   libhdf5-dev       # HDF5 C library: trajectories, energies and checkpoints (host/h5io.cpp)
   gnuplot-nox       # PNG plots: manyrods plot (pngcairo) and the speed-vs-error study (tools/run-accuracy)
   python3-h5py      # tests/test_h5io: checks that h5py reads the output layout
+  python3-dev       # Python headers: the Python module (python/src/module.cpp)
+  python3-venv      # the project's virtual environment (.venv) for the Python side
 )
 
 manyrods_install_deps() {
@@ -44,13 +46,37 @@ manyrods_install_deps() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# The Python side (nanobind, scikit-build-core, numpy, pytest, matplotlib,
+# usd-core; python/requirements.txt, pinned, from PyPI) in a virtual
+# environment of Debian's Python, never the system's site-packages:
+# $MANYRODS_VENV (default .venv in the checkout), made or updated when the
+# requirements changed. MANYRODS_PYTHON=0 skips it (no Python module, no
+# Python tests).
+MANYRODS_VENV=${MANYRODS_VENV:-$MANYRODS_ROOT/.venv}
+
+manyrods_python_env() {
+  [ "${MANYRODS_PYTHON:-1}" != 0 ] || return 0
+  local req="$MANYRODS_ROOT/python/requirements.txt" stamp="$MANYRODS_VENV/.manyrods-requirements"
+  if [ -x "$MANYRODS_VENV/bin/python" ] && cmp -s "$req" "$stamp"; then
+    echo "manyrods: Python environment $MANYRODS_VENV is up to date"
+    return 0
+  fi
+  echo "manyrods: making the Python environment $MANYRODS_VENV (python/requirements.txt, from PyPI)"
+  /usr/bin/python3 -m venv "$MANYRODS_VENV"
+  "$MANYRODS_VENV/bin/python" -m pip install -q --disable-pip-version-check -r "$req"
+  cp "$req" "$stamp"
+}
+
 manyrods_configure() {
-  local gen=()
+  local gen=() py=()
   if command -v ninja >/dev/null 2>&1; then gen=(-G Ninja); fi
+  if [ "${MANYRODS_PYTHON:-1}" != 0 ] && [ -x "$MANYRODS_VENV/bin/python" ]; then
+    py=(-DPython_EXECUTABLE="$MANYRODS_VENV/bin/python")
+  fi
   if [ -f "$MANYRODS_BUILD/CMakeCache.txt" ]; then
-    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
+    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" -DCMAKE_BUILD_TYPE=Release "${py[@]}" >/dev/null
   else
-    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release
+    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release "${py[@]}"
   fi
 }
 

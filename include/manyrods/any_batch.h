@@ -1,0 +1,97 @@
+// include/manyrods/any_batch.h — one batch of either precision with the
+// compile-time Terms it steps with, chosen at run time: the object the
+// Python module and the C API hold (library manyrods::scene).
+//
+// A batch comes from a scene (its file's rods, initial state, contact,
+// fluid, step and integrator) or from rods built in code (one group per
+// rod; Kelvin–Voigt compiled in when some rod is damped, gravity when it is
+// not zero). Every call dispatches to the library's instantiation for the
+// batch's precision and Terms (include/manyrods/scene.h "Terms dispatch"), so
+// an AnyBatch steps exactly as `manyrods run` does: the same state bit for
+// bit.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "manyrods/batch.h"
+#include "manyrods/scene.h"
+#include "manyrods/stable_dt.h"
+#include "manyrods/statics.h"
+#include "manyrods/step.h"
+
+namespace manyrods::scene {
+
+class AnyBatch {
+ public:
+  // The scene's batch (build_scene_batch, initial state applied), in the
+  // scene's precision or the given one.
+  static AnyBatch from_scene(Scene s, std::optional<Precision> precision = {});
+  // Rods built in code (InputError naming the rod for invalid ones).
+  static AnyBatch from_rods(std::vector<RodSpec> rods, Precision precision, const Vec3& gravity = {0, 0, 0},
+                            Integrator integrator = Integrator::position_verlet);
+
+  bool float32() const { return batch_.index() == 0; }
+  RodBatch<float>& f32() { return std::get<0>(batch_); }
+  RodBatch<double>& f64() { return std::get<1>(batch_); }
+  const RodBatch<float>& f32() const { return std::get<0>(batch_); }
+  const RodBatch<double>& f64() const { return std::get<1>(batch_); }
+  // f(RodBatch<T>&) for the batch's T.
+  template <class F>
+  decltype(auto) visit(F&& f) {
+    return std::visit(std::forward<F>(f), batch_);
+  }
+  template <class F>
+  decltype(auto) visit(F&& f) const {
+    return std::visit(std::forward<F>(f), batch_);
+  }
+
+  const Scene& scene() const { return *scene_; }  // code-built rods: a scene of one group per rod
+  bool from_file() const { return from_file_; }
+  const StepChoice& choice() const { return choice_; }
+  // The scene's step (scene_dt: its dt or "auto", frame-aligned, checked
+  // against the stable limit); for rods built in code 0.9 × stable_dt().elastic.
+  double scene_dt() const;
+
+  // `count` steps of length dt (advance_scene: NonFiniteError names the
+  // first bad step). keep_going, when given, is asked after every `chunk`
+  // steps (a multiple of 64, the non-finite check cadence, so the result does
+  // not depend on it) whether to go on; returns the steps done. InputError
+  // for dt ≤ 0 or not finite, count < 0, threads < 1.
+  std::int64_t step(double dt, std::int64_t count, int threads = 1, const std::function<bool()>& keep_going = {},
+                    std::int64_t chunk = 1024);
+  Energies energies(int rod = -1) const;
+  StableDt stable_dt() const;
+  // Static equilibrium from the current state (double batches; InputError for float).
+  StaticResult solve_static(const StaticOptions& opt = {});
+  std::uint64_t state_hash() const;
+
+  double time() const;
+  std::int64_t steps() const;
+  int slots() const;
+  int rod_count() const;
+  int elements(int rod) const;  // InputError for a rod out of range
+  int node_slot(int rod, int node) const { return offset(rod) + 1 + node; }
+  int element_slot(int rod, int element) const { return offset(rod) + 1 + element; }
+  std::int64_t node_count() const;  // all rods' nodes (element_count + rod_count)
+
+  // A manyrods output file (include/manyrods/h5io.h) with this state as its
+  // one frame and its checkpoint (a scene's batch: `manyrods run --restart`
+  // continues it). h5::H5Error when it cannot be written.
+  void save(const std::string& path) const;
+
+ private:
+  AnyBatch() = default;
+  int offset(int rod) const;
+  std::variant<RodBatch<float>, RodBatch<double>> batch_;
+  std::shared_ptr<const Scene> scene_;
+  StepChoice choice_;
+  bool from_file_ = false;
+};
+
+}  // namespace manyrods::scene

@@ -1,0 +1,259 @@
+"""The Python module: zero-copy views, bit-identity with the C++ tool, errors,
+interruption, and a cantilever built from Python against beam theory.
+
+Run by ctest (tests/CMakeLists.txt) with build/python on PYTHONPATH and the
+command-line tool's path in MANYRODS_CLI; the scenes are in MANYRODS_SCENES.
+"""
+
+import gc
+import os
+import re
+import signal
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import manyrods
+
+SCENES = os.environ.get("MANYRODS_SCENES", os.path.join(os.path.dirname(__file__), "..", "..", "tools", "scenes"))
+CLI = os.environ.get("MANYRODS_CLI", "")
+CANTILEVER = os.path.join(SCENES, "seed_cantilever.toml")
+
+
+def cantilever(elements=16, damping=None, length=0.3, tip="free"):
+    return manyrods.Rod.straight(
+        [0, 0, 0], [0, 0, 1], length=length, elements=elements, normal=[1, 0, 0],
+        section=manyrods.Section.rectangle(0.01, 0.01),
+        material=manyrods.Material(density=1000, youngs_modulus=1e6, poisson_ratio=0.3),
+        damping=damping or manyrods.Damping.none(), root="clamped", tip=tip)
+
+
+# ---- views ------------------------------------------------------------------------------
+
+
+def test_views_share_the_batch_memory_and_follow_its_steps():
+    batch = manyrods.load_scene(CANTILEVER).build_batch()
+    x = batch.node_position
+    assert x.shape == (3, batch.slots)
+    assert not x.flags.writeable and not x.flags.owndata
+    assert batch.element_directors.shape == (3, 3, batch.slots)
+    # two views of one field are the same memory
+    assert np.shares_memory(x, batch.node_position)
+    tip = batch.node_range(0).stop - 1
+    before = x[:, tip].copy()
+    batch.step(batch.dt, count=200)
+    assert batch.steps == 200
+    # the old view shows the new state: it is the batch's memory, not a copy
+    assert not np.array_equal(x[:, tip], before)
+    np.testing.assert_array_equal(x[:, batch.node_range(0)].T, batch.positions())
+
+
+def test_views_keep_the_batch_alive():
+    batch = manyrods.Batch([cantilever()])
+    x, q = batch.node_position, batch.element_directors
+    rng = batch.node_range(0)
+    del batch
+    gc.collect()
+    np.testing.assert_allclose(x[2, rng][-1], 0.3, rtol=1e-15)
+    e = q[:, :, 1]  # the first element's frame: d3 along z
+    np.testing.assert_allclose(e @ e.T, np.eye(3), atol=1e-15)
+
+
+def test_load_views_are_writable_and_act_on_the_step():
+    rod = cantilever()
+    batch = manyrods.Batch([rod])
+    f = batch.node_force
+    assert f.flags.writeable
+    tip = batch.node_range(0).stop - 1
+    f[0, tip] = 1e-3  # N along x on the tip
+    batch.solve_static()
+    EI = 1e6 * 0.01**4 / 12
+    assert batch.node_position[0, tip] > 0.5 * 1e-3 * 0.3**3 / (3 * EI)
+
+
+def test_setters_write_state_and_reject_bad_values():
+    batch = manyrods.Batch([cantilever()], precision="float")
+    r = batch.node_range(0)
+    x = batch.node_position[:, r].astype(np.float64)
+    x[0] += 0.001
+    batch.set_node_position(x, rod=0)
+    np.testing.assert_array_equal(batch.node_position[:, r], x.astype(np.float32))
+    with pytest.raises(ValueError, match="shape"):
+        batch.set_node_position(np.zeros((3, 5)), rod=0)
+    bad = x.copy()
+    bad[1, 3] = np.nan
+    with pytest.raises(ValueError, match="not finite"):
+        batch.set_node_position(bad, rod=0)
+    q = batch.element_directors[:, :, batch.element_range(0)].astype(np.float64) * 1.01
+    with pytest.raises(ValueError, match="orthonormal"):
+        batch.set_element_directors(q, rod=0)
+
+
+# ---- the same numbers as the C++ tool -----------------------------------------------------
+
+
+@pytest.mark.skipif(not CLI, reason="MANYRODS_CLI not set")
+def test_stepping_from_python_equals_the_command_line_tool_bit_for_bit(tmp_path):
+    out = tmp_path / "c.h5"
+    r = subprocess.run([CLI, "run", CANTILEVER, "-o", str(out), "--duration", "0.5", "--no-progress"],
+                       capture_output=True, text=True, check=True)
+    text = r.stdout + r.stderr
+    m = re.search(r"state hash ([0-9a-fx]+)", text)
+    assert m, text
+    cli_hash = int(m.group(1), 16)
+    steps = int(re.search(r"(\d+) steps", text).group(1))
+    batch = manyrods.load_scene(CANTILEVER).build_batch()
+    # any chunking of the steps gives the same state
+    batch.step(batch.dt, count=steps // 3)
+    batch.step(batch.dt, count=steps - steps // 3)
+    assert batch.state_hash() == cli_hash
+    # and Scene.run (the library's runner) agrees too
+    res = manyrods.load_scene(CANTILEVER).run(str(tmp_path / "p.h5"), duration=0.5)
+    assert res["state_hash"] == cli_hash and res["steps"] == steps
+
+
+def test_results_do_not_depend_on_the_thread_count():
+    rods = [cantilever(damping=manyrods.Damping.shear_extension(0.01, 0.01)) for _ in range(8)]
+    for i, r in enumerate(rods):
+        v = np.zeros((r.elements + 1, 3))
+        v[:, 0] = 0.01 * (i + 1) * np.linspace(0, 1, r.elements + 1)
+        r.velocities = v
+    hashes = []
+    for threads in (1, 2):
+        b = manyrods.Batch(rods, gravity=[0, 0, -9.81], threads=threads)
+        b.step(1e-4, 300)
+        hashes.append(b.state_hash())
+    assert hashes[0] == hashes[1]
+
+
+# ---- physics from Python --------------------------------------------------------------------
+
+
+def test_a_cantilever_built_in_python_bends_as_a_timoshenko_beam():
+    # gravity load q = ρAg per length; tip deflection qL⁴/8EI + qL²/2κGA. The
+    # discrete error is O(dx²): the tolerance is the 16- vs 32-element
+    # difference (Richardson), which bounds the 32-element error.
+    rho, E, nu, a, L, g = 1000.0, 1e6, 0.3, 0.01, 0.3, 9.81
+    A, I = a * a, a**4 / 12
+    G = E / (2 * (1 + nu))
+    kappa = 10 * (1 + nu) / (12 + 11 * nu)  # Cowper's rectangle
+    q = rho * A * g
+    theory = q * L**4 / (8 * E * I) + q * L**2 / (2 * kappa * G * A)
+    tips = []
+    for n in (16, 32):
+        b = manyrods.Batch([cantilever(elements=n)], gravity=[-g, 0, 0])
+        res = b.solve_static()
+        assert res["converged"]
+        tips.append(-b.node_position[0, b.node_range(0).stop - 1])
+    # small-deflection theory: the geometric nonlinearity is O((δ/L)²)
+    nonlinear = (theory / L) ** 2
+    assert abs(tips[1] - theory) / theory < abs(tips[1] - tips[0]) / theory + nonlinear
+
+
+def test_energy_of_an_undamped_swing_is_conserved_to_the_integrator_error():
+    rod = cantilever(elements=16)
+    v = np.zeros((17, 3))
+    v[:, 0] = np.linspace(0, 0.05, 17)
+    rod.velocities = v
+    b = manyrods.Batch([rod])
+    e0 = b.energies()["total"]
+    dt = b.dt
+    b.advance(0.5, dt=dt)
+    # Position Verlet: the energy error oscillates with amplitude O((ω dt)²) ≤ (0.9·2)²/8 of E
+    assert abs(b.energies()["total"] - e0) < 0.05 * e0
+    assert b.time == pytest.approx(round(0.5 / dt) * dt)
+
+
+# ---- errors ----------------------------------------------------------------------------------
+
+
+def test_bad_input_raises_value_error_with_the_library_message():
+    text = open(CANTILEVER).read().replace("youngs_modulus = 1.0e6", "youngs_modulus = -3.0")
+    with pytest.raises(ValueError, match=r"mine\.toml:\d+:\d+: rods\.0\.material\.youngs_modulus"):
+        manyrods.parse_scene(text, "mine.toml")
+    with pytest.raises(ValueError, match="cannot"):
+        manyrods.load_scene("/nonexistent/scene.toml")
+    with pytest.raises(ValueError, match="precision"):
+        manyrods.Batch([cantilever()], precision="half")
+    with pytest.raises(ValueError, match=r"rod 0 .*material\.density"):
+        manyrods.Batch([manyrods.Rod.straight([0, 0, 0], [0, 0, 1], 1.0, 4, section=manyrods.Section.circle(0.01))])
+    b = manyrods.Batch([cantilever()])
+    with pytest.raises(ValueError, match="dt"):
+        b.step(float("nan"))
+    with pytest.raises(ValueError, match="rod 3"):
+        b.node_range(3)
+
+
+def test_a_blow_up_raises_non_finite_error_naming_where():
+    rod = cantilever(elements=16)
+    v = np.zeros((17, 3))
+    v[:, 0] = np.linspace(0, 1.0, 17)
+    rod.velocities = v
+    b = manyrods.Batch([rod])
+    with pytest.raises(manyrods.NonFiniteError, match=r"rod 0"):
+        b.step(100 * b.stable_dt()["elastic"], count=2000)
+
+
+# ---- the GIL and Ctrl-C -----------------------------------------------------------------------
+
+
+def test_step_releases_the_gil():
+    b = manyrods.Batch([cantilever(elements=64) for _ in range(64)])
+    ticks = 0
+    t = threading.Thread(target=lambda: b.step(b.dt, 4000))
+    t.start()
+    while t.is_alive():
+        ticks += 1
+        time.sleep(0.001)
+    t.join()
+    assert ticks > 10  # this thread ran while the other stepped
+
+
+def test_ctrl_c_stops_a_long_step(tmp_path):
+    script = tmp_path / "long.py"
+    script.write_text(textwrap.dedent(f"""
+        import sys, manyrods
+        b = manyrods.load_scene({CANTILEVER!r}).build_batch()
+        print("start", flush=True)
+        try:
+            b.step(b.dt, count=10**9)
+        except KeyboardInterrupt:
+            print("interrupted", b.steps, flush=True)
+            sys.exit(0)
+        sys.exit(1)
+    """))
+    p = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, env=os.environ)
+    assert p.stdout.readline().strip() == "start"
+    time.sleep(1.0)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=30)
+    assert p.returncode == 0, out
+    steps = int(out.split()[1])
+    assert 0 < steps < 10**9 and steps % 64 == 0
+
+
+# ---- scenes ----------------------------------------------------------------------------------
+
+
+def test_sweep_returns_the_summary_as_arrays(tmp_path):
+    s = manyrods.load_scene(CANTILEVER)
+    r = s.sweep(["rods.0.damping.tau_extension=0.02:0.04:3"], str(tmp_path / "s.h5"), duration=0.2)
+    tau = r["parameters"]["rods.0.damping.tau_extension"]
+    np.testing.assert_allclose(tau, [0.02, 0.03, 0.04])
+    assert all(len(v) == 3 for v in r["summary"].values())
+    assert (tmp_path / "s.h5").exists()
+
+
+def test_save_writes_a_file_the_tool_can_continue(tmp_path):
+    b = manyrods.load_scene(CANTILEVER).build_batch()
+    b.step(b.dt, 128)
+    b.save(str(tmp_path / "saved.h5"))
+    assert (tmp_path / "saved.h5").stat().st_size > 0
+    if CLI:
+        subprocess.run([CLI, "run", "--restart", str(tmp_path / "saved.h5"), "-o", str(tmp_path / "more.h5"),
+                        "--duration", "0.05", "--no-progress"], check=True, capture_output=True)
