@@ -3,6 +3,7 @@
 #include "manyrods/any_batch.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -76,21 +77,31 @@ double AnyBatch::scene_dt() const {
 }
 
 std::int64_t AnyBatch::step(double dt, std::int64_t count, int threads, const std::function<bool()>& keep_going,
-                            std::int64_t chunk) {
+                            double check_s) {
   if (!(dt > 0) || !std::isfinite(dt)) throw InputError("step: dt must be > 0 and finite (got " + std::to_string(dt) + ")");
   if (count < 0) throw InputError("step: count must be >= 0 (got " + std::to_string(count) + ")");
   if (threads < 1) throw InputError("step: threads must be >= 1 (got " + std::to_string(threads) + ")");
-  chunk = std::max<std::int64_t>(kSampleSteps, chunk / kSampleSteps * kSampleSteps);
   const Exec ex{threads, nullptr};
-  std::int64_t done = 0;
-  while (done < count) {
-    const std::int64_t n = keep_going ? std::min(chunk, count - done) : count - done;
+  const auto advance = [&](std::int64_t n) {
     visit([&](auto& b) {
       using T = typename std::remove_reference_t<decltype(b)>::value_type;
       advance_scene(b, choice_, T(dt), n, ex);
     });
+  };
+  if (!keep_going) {
+    advance(count);
+    return count;
+  }
+  // chunks of whole check intervals, doubled while one takes under check_s
+  std::int64_t chunk = kSampleSteps, done = 0;
+  while (done < count) {
+    const std::int64_t n = std::min(chunk, count - done);
+    const auto t0 = std::chrono::steady_clock::now();
+    advance(n);
     done += n;
-    if (done < count && keep_going && !keep_going()) break;
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (took < check_s && chunk < (std::int64_t{1} << 40)) chunk *= 2;
+    if (done < count && !keep_going()) break;
   }
   return done;
 }

@@ -59,12 +59,15 @@ class AnyBatch {
   double scene_dt() const;
 
   // `count` steps of length dt (advance_scene: NonFiniteError names the
-  // first bad step). keep_going, when given, is asked after every `chunk`
-  // steps (a multiple of 64, the non-finite check cadence, so the result does
-  // not depend on it) whether to go on; returns the steps done. InputError
-  // for dt ≤ 0 or not finite, count < 0, threads < 1.
+  // first bad step). keep_going, when given, is asked between chunks of
+  // steps whether to go on; a chunk is a multiple of 64 steps (the
+  // non-finite check cadence, so the result does not depend on the chunks),
+  // starts at 64 and doubles while a chunk takes under `check_s` seconds of
+  // wall time, so the question comes about every check_s whatever the batch
+  // size. Returns the steps done. InputError for dt ≤ 0 or not finite,
+  // count < 0, threads < 1.
   std::int64_t step(double dt, std::int64_t count, int threads = 1, const std::function<bool()>& keep_going = {},
-                    std::int64_t chunk = 1024);
+                    double check_s = 0.1);
   Energies energies(int rod = -1) const;
   StableDt stable_dt() const;
   // Static equilibrium from the current state (double batches; InputError for float).

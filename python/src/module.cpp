@@ -14,9 +14,9 @@
 // writable.
 //
 // Stepping releases the GIL; a long step is cut into chunks of whole
-// non-finite-check intervals (so the result does not depend on them) and
-// Ctrl-C (SIGINT) between chunks stops it with KeyboardInterrupt, the batch
-// left at the last whole chunk.
+// non-finite-check intervals (so the result does not depend on them) of
+// about 0.1 s each, and Ctrl-C (SIGINT) between chunks stops it with
+// KeyboardInterrupt, the batch left at the last whole chunk.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/optional.h>
@@ -280,9 +280,6 @@ nb::dict energies_dict(const manyrods::Energies& e) {
 // Steps with the GIL released; Ctrl-C between chunks (see the top).
 void step_batch(PyBatch& pb, double dt, std::int64_t count) {
   bool interrupted = false;
-  // chunks of about 2e7 element-steps (well under a second), whole check intervals
-  const std::int64_t elements = std::max<std::int64_t>(1, pb.b.node_count() - pb.b.rod_count());
-  const std::int64_t chunk = std::max<std::int64_t>(64, 20000000 / elements);
   {
     nb::gil_scoped_release release;
     pb.b.step(dt, count, pb.threads,
@@ -291,7 +288,7 @@ void step_batch(PyBatch& pb, double dt, std::int64_t count) {
                 if (PyErr_CheckSignals() != 0) interrupted = true;
                 return !interrupted;
               },
-              chunk);
+              0.1);
   }
   if (interrupted) throw nb::python_error();
 }
