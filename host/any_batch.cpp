@@ -23,6 +23,35 @@ double section_width(const Section& s) {
   }
 }
 
+// The batch gets host motions of its own (two batches of one scene are
+// driven apart): one copy per name among s.host_motions and the HostMotions
+// the rods and colliders use (rods built in code that name one driver share
+// it), every hold and collider pointed at its copy.
+std::vector<std::shared_ptr<HostMotion>> own_host_motions(Scene& s) {
+  std::vector<std::shared_ptr<HostMotion>> copies;
+  auto remap = [&](std::shared_ptr<const RootMotion>& m) {
+    auto h = std::dynamic_pointer_cast<const HostMotion>(m);
+    if (!h) return;
+    if (h->name().empty()) throw InputError("a host motion (driver) needs a name, got \"\"");
+    std::size_t i = 0;
+    while (i < copies.size() && copies[i]->name() != h->name()) ++i;
+    if (i == copies.size()) copies.push_back(std::make_shared<HostMotion>(*h));
+    m = copies[i];
+  };
+  for (const auto& h : s.host_motions) {
+    std::shared_ptr<const RootMotion> m = h;
+    remap(m);
+  }
+  for (RodSpec& r : s.rods) {
+    remap(r.root_motion);
+    remap(r.tip_motion);
+    for (NodeHold& h : r.holds) remap(h.motion);
+  }
+  for (Collider& c : s.contact.colliders) remap(c.motion);
+  s.host_motions = copies;
+  return copies;
+}
+
 }  // namespace
 
 AnyBatch AnyBatch::from_scene(Scene s, std::optional<Precision> precision) {
@@ -30,6 +59,7 @@ AnyBatch AnyBatch::from_scene(Scene s, std::optional<Precision> precision) {
   AnyBatch a;
   a.from_file_ = true;
   a.choice_ = step_choice(s);
+  a.host_motions_ = own_host_motions(s);
   if (s.sim.precision == Precision::float32) a.batch_.emplace<0>(build_scene_batch<float>(s));
   else a.batch_.emplace<1>(build_scene_batch<double>(s));
   a.scene_ = std::make_shared<const Scene>(std::move(s));
@@ -59,6 +89,7 @@ AnyBatch AnyBatch::from_rods(std::vector<RodSpec> rods, Precision precision, con
   s.rods = std::move(rods);
   AnyBatch a;
   a.choice_ = step_choice(s);
+  a.host_motions_ = own_host_motions(s);
   try {
     if (precision == Precision::float32) a.batch_.emplace<0>(build_scene_batch<float>(s));
     else a.batch_.emplace<1>(build_scene_batch<double>(s));
@@ -69,6 +100,22 @@ AnyBatch AnyBatch::from_rods(std::vector<RodSpec> rods, Precision precision, con
   }
   a.scene_ = std::make_shared<const Scene>(std::move(s));
   return a;
+}
+
+int AnyBatch::find_driver(const std::string& name) const {
+  for (std::size_t i = 0; i < host_motions_.size(); ++i)
+    if (host_motions_[i]->name() == name) return int(i);
+  std::string known;
+  for (const auto& h : host_motions_) known += (known.empty() ? "\"" : ", \"") + h->name() + "\"";
+  throw InputError("no driver named \"" + name + "\" (the batch's host motions: " +
+                   (known.empty() ? std::string("none") : known) + ")");
+}
+
+void AnyBatch::set_driver_pose(int driver, const Pose& pose, double until) {
+  if (driver < 0 || driver >= driver_count())
+    throw InputError("driver " + std::to_string(driver) + " out of range (the batch has " +
+                     std::to_string(driver_count()) + " host motions)");
+  host_motions_[std::size_t(driver)]->set_target(time(), pose, until);
 }
 
 double AnyBatch::scene_dt() const {

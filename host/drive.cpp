@@ -130,6 +130,45 @@ Pose RampMotion::at(double t) const {
   return about_pivot(r, s * to_eigen(translation), pivot);
 }
 
+Pose HostMotion::at(double t) const {
+  if (t <= t0_) return p0_;
+  if (t >= t1_) return p1_;
+  const double a = (t - t0_) / (t1_ - t0_);
+  const Eigen::Quaterniond q0(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p0_.rotation.data()));
+  const Eigen::Quaterniond q1(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p1_.rotation.data()));
+  const EM3 r = q0.slerp(a, q1).toRotationMatrix();
+  Pose p;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) p.rotation[3 * i + j] = r(i, j);
+    p.translation[i] = (1 - a) * p0_.translation[i] + a * p1_.translation[i];
+  }
+  return p;
+}
+
+void HostMotion::set_target(double now, const Pose& target, double until) {
+  auto bad = [&](const std::string& what) { throw InputError("driver \"" + name_ + "\": " + what); };
+  for (double v : target.rotation)
+    if (!std::isfinite(v)) bad("the rotation is not finite");
+  for (double v : target.translation)
+    if (!std::isfinite(v)) bad("the translation is not finite");
+  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(target.rotation.data());
+  const double off = (r * r.transpose() - EM3::Identity()).cwiseAbs().maxCoeff();
+  if (off > 1e-6 || r.determinant() < 0)
+    bad("the rotation is not a proper rotation matrix (|R Rᵀ − I| = " + std::to_string(off) +
+        ", det = " + std::to_string(r.determinant()) + ")");
+  if (!std::isfinite(now) || !std::isfinite(until) || until < now)
+    bad("the time " + std::to_string(until) + " is before the batch's time " + std::to_string(now));
+  // re-orthonormalized, so that at() stays a rotation to round-off
+  Pose t = target;
+  const EM3 q = Eigen::Quaterniond(EM3(r)).normalized().toRotationMatrix();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) t.rotation[3 * i + j] = q(i, j);
+  p0_ = until > now ? at(now) : t;
+  p1_ = t;
+  t0_ = now;
+  t1_ = until;
+}
+
 RootStep root_step(const RootMotion& motion, double t, double h) {
   RootStep s{motion.at(t), motion.at(t + h), {0, 0, 0}};
   EM3 r0, r1;

@@ -4,6 +4,7 @@
 #include "manyrods/scene.h"
 
 #include "manyrods/mesh.h"
+#include "manyrods/curves.h"
 
 #include "host/rng.h"
 
@@ -40,6 +41,8 @@ std::string num(double v) {
 struct Ctx {
   std::string source;
   std::set<const toml::node*> overridden;  // nodes set by --vary (no source position)
+  // motion = "host" tables by name, one HostMotion per name (Scene::host_motions)
+  mutable std::vector<std::shared_ptr<HostMotion>> host_motions;
 
   std::string where(const toml::node& n) const {
     const auto& b = n.source().begin;
@@ -256,12 +259,13 @@ std::vector<const char*> with_keys(std::initializer_list<const char*> base, cons
 const std::vector<const char*> kMotionKeys = {
     "motion", "translation_amplitude", "rotation_axis", "rotation_amplitude", "frequency", "phase",
     "ramp_time", "pivot", "times", "translations", "rotations", "translation", "rotation", "start_time",
-    "duration", "profile"};
+    "duration", "profile", "name"};
 std::vector<const char*> with_motion_keys(std::initializer_list<const char*> base) { return with_keys(base, kMotionKeys); }
 
-// A rigid motion table (motion = "oscillate" | "keyframes" | "ramp"; angles
-// in degrees), as a driven hold's table and a collider's `motion`. `extra`:
-// the other keys the table may have (a hold's kind, node).
+// A rigid motion table (motion = "oscillate" | "keyframes" | "ramp" | "host";
+// angles in degrees), as a driven hold's table and a collider's `motion`.
+// `extra`: the other keys the table may have (a hold's kind, node). "host"
+// tables with the same `name` share one HostMotion.
 std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key,
                                                const std::vector<const char*>& extra = {}) {
   constexpr double deg = std::numbers::pi / 180;
@@ -270,6 +274,15 @@ std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key,
   const std::string kind = t.contains("motion") && t.get("motion")->is_string()
                                ? t.get("motion")->as_string()->get()
                                : std::string();
+  if (kind == "host") {
+    const Table m = g.sub(key, with_keys({"motion", "name"}, extra));
+    if (!m.has("name")) m.missing("name", "a host motion is named (the host sets its pose by this name)");
+    const std::string name = m.text("name");
+    if (name.empty()) m.fail("name", "must not be empty");
+    for (const auto& h : g.ctx.host_motions)
+      if (h->name() == name) return h;
+    return g.ctx.host_motions.emplace_back(std::make_shared<HostMotion>(name));
+  }
   if (kind == "ramp") {
     const Table m = g.sub(key, with_keys({"motion", "translation", "rotation_axis", "rotation", "start_time",
                                           "duration", "profile", "pivot"},
@@ -351,9 +364,9 @@ std::shared_ptr<const RootMotion> parse_motion(const Table& g, const char* key,
   const toml::node* mk = t.get("motion");
   if (!mk)
     g.ctx.fail(*n, g.key(std::string(key) + ".motion"),
-               "missing: a motion needs motion = \"oscillate\", \"keyframes\" or \"ramp\"");
+               "missing: a motion needs motion = \"oscillate\", \"keyframes\", \"ramp\" or \"host\"");
   g.ctx.fail(*mk, g.key(std::string(key) + ".motion"),
-             mk->is_string() ? "\"" + kind + "\" is not one of \"oscillate\", \"keyframes\", \"ramp\""
+             mk->is_string() ? "\"" + kind + "\" is not one of \"oscillate\", \"keyframes\", \"ramp\", \"host\""
                              : std::string("must be a string, got ") + type_name(*mk));
 }
 
@@ -406,7 +419,7 @@ Root parse_end(const Table& g, const char* key, bool dflt_clamped) {
   }
   if (!n->is_table())
     g.fail(key, std::string("must be \"clamped\", \"pinned\", \"free\" or a table { kind = \"clamped\" | "
-                            "\"pinned\", motion = \"oscillate\" | \"keyframes\" | \"ramp\", … }, got ") +
+                            "\"pinned\", motion = \"oscillate\" | \"keyframes\" | \"ramp\" | \"host\", … }, got ") +
                     type_name(*n));
   return parse_hold_table(g, key, {});
 }
@@ -503,7 +516,7 @@ void parse_collider_common(const Table& t, Collider& c) {
   if (t.has("friction")) c.friction = parse_friction(t);
   if (!t.has("motion")) return;
   if (!t.get("motion")->is_table())
-    t.fail("motion", std::string("must be a table with motion = \"oscillate\" or \"keyframes\", got ") +
+    t.fail("motion", std::string("must be a table with motion = \"oscillate\", \"keyframes\", \"ramp\" or \"host\", got ") +
                          type_name(*t.get("motion")));
   c.motion = parse_motion(t, "motion");
   try {
@@ -909,6 +922,13 @@ struct Pending {
   Damping damping;
   const toml::table* table;
   std::shared_ptr<const RootMotion> motion;  // driven root: shared by the group's rods
+  // from_curves (include/manyrods/curves.h): one rod per curve, `curve_elements`
+  // each (0: the curve's own points), the section from the widths unless the
+  // group gives one; the exact slot and element totals for the size check
+  std::vector<Curve> curves;
+  int curve_elements = 0;
+  bool section_from_widths = false;
+  std::int64_t curve_slots = 0, curve_element_total = 0;
 };
 
 toml::table parse_toml(std::string_view text, const std::string& source) {
@@ -1003,6 +1023,48 @@ Drag parse_drag(const Table& g) {
   return d;
 }
 
+// from_curves = { file, elements, scale }: the group's rods from guide
+// curves (include/manyrods/curves.h; docs/scenes.md "Grooms from curves").
+// The keys that place generated rods do not go with it; the section comes
+// from the file's widths when the group gives none.
+void parse_curves(const Table& g, Pending& p) {
+  for (const char* k : {"count", "elements", "length", "start", "direction", "normal", "placement", "rest_curvature"})
+    if (g.has(k))
+      g.fail(k, "does not go with from_curves (the curves give the rods' number, shape and rest shape; "
+                "from_curves.elements resamples them)");
+  const toml::node* n = g.get("from_curves");
+  if (!n->is_table()) g.fail("from_curves", "must be a table { file = \"groom.usda\", elements = 32 }");
+  const Table t = g.sub("from_curves", {"file", "elements", "scale"});
+  if (!t.has("file")) t.missing("file", "a .usda, .obj or .h5 file of curves, relative to the scene file");
+  const std::string file = t.text("file");
+  p.curve_elements = t.has("elements") ? int(t.integer("elements", 0, 1 << 30)) : 0;
+  const double scale = t.has("scale") ? t.positive("scale") : 1.0;
+  const std::string full = !file.empty() && file[0] == '/' ? file : scene_dir(g.ctx.source) + file;
+  try {
+    p.curves = read_curves(full);
+  } catch (const InputError& e) {
+    t.fail("file", e.what());
+  }
+  p.section_from_widths = !g.has("section");
+  int fewest = std::numeric_limits<int>::max();
+  for (Curve& c : p.curves) {
+    for (Vec3& x : c.points)
+      for (double& v : x) v *= scale;
+    if (c.width > 0) c.width *= scale;
+    if (p.section_from_widths && !(c.width > 0))
+      t.fail("file", c.label + ": no widths in the file: give the group a section");
+    const int e = p.curve_elements > 0 ? p.curve_elements : std::max(1, int(c.points.size()) - 1);
+    fewest = std::min(fewest, e);
+    p.curve_slots += e + 2;
+    p.curve_element_total += e;
+    if (p.section_from_widths) p.g.width = std::max(p.g.width, c.width);
+  }
+  if (p.curves.size() > std::size_t(std::numeric_limits<int>::max())) t.fail("file", "too many curves");
+  p.g.count = int(p.curves.size());
+  p.elements = fewest;  // interior holds must exist on every rod
+  if (p.section_from_widths) p.section = Section::circle(0.5 * p.curves[0].width);
+}
+
 // One [[rods]] table, every key validated in the order of docs/scenes.md;
 // the group's material and damping resolved (so that a library InputError
 // names this group). The placement is made by the caller after the size
@@ -1012,18 +1074,22 @@ Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const
   p.table = &gt;
   p.g.name = g.has("name") ? g.text("name") : "rods." + std::to_string(gi);
   p.g.line = int(gt.source().begin.line);
-  p.g.count = int(g.has("count") ? g.integer("count", 1, std::numeric_limits<int>::max()) : 1);
-  p.elements = int(g.integer("elements", 1, 1 << 30));
-  p.length = g.positive("length");
-  p.start = g.vec3("start", {0, 0, 0});
-  p.direction = g.nonzero_vec3("direction", {0, 0, 1});
-  p.normal = g.nonzero_vec3("normal", {1, 0, 0});
-  if (to_e(p.direction).normalized().cross(to_e(p.normal).normalized()).norm() < 1e-9)
-    g.fail(g.has("normal") ? "normal" : "direction", "normal must not be parallel to direction");
-  p.section = parse_section(g, &p.g.width);
+  if (g.has("from_curves")) {
+    parse_curves(g, p);
+  } else {
+    p.g.count = int(g.has("count") ? g.integer("count", 1, std::numeric_limits<int>::max()) : 1);
+    p.elements = int(g.integer("elements", 1, 1 << 30));
+    p.length = g.positive("length");
+    p.start = g.vec3("start", {0, 0, 0});
+    p.direction = g.nonzero_vec3("direction", {0, 0, 1});
+    p.normal = g.nonzero_vec3("normal", {1, 0, 0});
+    if (to_e(p.direction).normalized().cross(to_e(p.normal).normalized()).norm() < 1e-9)
+      g.fail(g.has("normal") ? "normal" : "direction", "normal must not be parallel to direction");
+  }
+  if (!p.section_from_widths) p.section = parse_section(g, &p.g.width);
   p.material = parse_material(g);
   p.damping = parse_damping(g);
-  p.u0 = g.vec3("rest_curvature", {0, 0, 0});
+  p.u0 = p.curves.empty() ? g.vec3("rest_curvature", {0, 0, 0}) : Vec3{0, 0, 0};
   p.curved = to_e(p.u0).norm() > 0;
   parse_group_ends(g, p);
   p.drag = parse_drag(g);
@@ -1056,6 +1122,10 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
   for (int i = 0; i < p.g.count; ++i) {
     RodSpec r;
     try {
+      if (!p.curves.empty()) {
+        r = rod_from_curve(p.curves[std::size_t(i)], p.curve_elements);
+        if (!p.section_from_widths) r.section = p.section;
+      } else
       r = p.curved ? curved_rod(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length, p.elements,
                                 p.u0)
                    : RodSpec::straight(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length,
@@ -1065,7 +1135,7 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
                        std::to_string(i) + ": " + e.what());
     }
     r.name = p.g.name + "[" + std::to_string(i) + "]";
-    r.section = p.section;
+    if (p.curves.empty()) r.section = p.section;
     r.material = p.material;
     r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
     r.shear_stretch_scale = p.scale;
@@ -1087,7 +1157,7 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
 }  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& source, const std::vector<Override>& overrides) {
-  Ctx ctx{source, {}};
+  Ctx ctx{source, {}, {}};
   toml::table root = parse_toml(text, source);
   for (const Override& o : overrides) apply_override(root, o, ctx);
 
@@ -1113,12 +1183,12 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
                   {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
                    "section", "material", "damping", "rest_curvature", "root", "tip", "tip_force",
                    "initial_tip_force", "terms", "shear_stretch_scale", "stiff", "friction", "constraints",
-                   "drag"});
+                   "drag", "from_curves"});
     Pending p = parse_group(g, gt, gi, sc.sim);
-    slots += std::int64_t(p.g.count) * (p.elements + 2);
-    elements += std::int64_t(p.g.count) * p.elements;
+    slots += p.curves.empty() ? std::int64_t(p.g.count) * (p.elements + 2) : p.curve_slots;
+    elements += p.curves.empty() ? std::int64_t(p.g.count) * p.elements : p.curve_element_total;
     check_size(source, slots, elements, sc.sim.precision);  // before the placement allocates per-rod vectors
-    p.place = parse_placement(g, p.g.count, p.start, p.direction, p.normal);
+    if (p.curves.empty()) p.place = parse_placement(g, p.g.count, p.start, p.direction, p.normal);
     pending.push_back(std::move(p));
   }
   for (std::size_t gi = 0; gi < pending.size(); ++gi) expand_group(sc, pending[gi], gi);
@@ -1129,6 +1199,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     sc.contact.rod_friction.push_back(g.friction);
     sc.contact.rod_has_friction.push_back(g.has_friction ? 1 : 0);
   }
+  sc.host_motions = std::move(ctx.host_motions);
   return sc;
 }
 

@@ -83,6 +83,17 @@ class AnyBatch {
   int element_slot(int rod, int element) const { return offset(rod) + 1 + element; }
   std::int64_t node_count() const;  // all rods' nodes (element_count + rod_count)
 
+  // Host motions (motion = "host" in a scene, HostMotion in a rod built in
+  // code; include/manyrods/drive.h), by index in the order they first
+  // appear: the host moves them between steps. find_driver: InputError
+  // naming the known ones. set_driver_pose: from the pose at time() to
+  // `pose` at time `until` ≥ time() (HostMotion::set_target; InputError for
+  // a bad index, pose or time).
+  int driver_count() const { return int(host_motions_.size()); }
+  const std::string& driver_name(int driver) const { return host_motions_.at(std::size_t(driver))->name(); }
+  int find_driver(const std::string& name) const;
+  void set_driver_pose(int driver, const Pose& pose, double until);
+
   // A manyrods output file (include/manyrods/h5io.h) with this state as its
   // one frame and its checkpoint (a scene's batch: `manyrods run --restart`
   // continues it). h5::H5Error when it cannot be written.
@@ -95,6 +106,7 @@ class AnyBatch {
   std::shared_ptr<const Scene> scene_;
   StepChoice choice_;
   bool from_file_ = false;
+  std::vector<std::shared_ptr<HostMotion>> host_motions_;  // this batch's own (not the Scene's)
 };
 
 }  // namespace manyrods::scene

@@ -30,6 +30,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <vector>
 
 namespace manyrods {
@@ -103,6 +104,31 @@ struct RampMotion : RootMotion {
   Pose at(double t) const override;
   // Throws InputError naming the first bad field.
   void validate() const override;
+};
+
+// A motion the host application sets as it goes (an animation package's
+// head, a game's hand, a collider it animates), by name: a scene's
+// `motion = "host"` (docs/scenes.md "Host-driven motion"), the C API's
+// mr_batch_set_driver_pose, the Python module's Batch.set_driver_pose.
+// set_target(now, target, until) moves it from where it is at `now` (at(now))
+// to `target` at `until`: the translation linearly, the rotation along the
+// shortest arc (constant angular velocity), held at `target` after `until`;
+// until = now jumps (a teleport: the step sees an infinite velocity, so only
+// for a first placement). It starts at the identity pose. set_target must
+// not run while a step evaluates at() (the host sets poses between steps).
+class HostMotion : public RootMotion {
+ public:
+  explicit HostMotion(std::string name) : name_(std::move(name)) {}
+  const std::string& name() const { return name_; }
+  Pose at(double t) const override;
+  // InputError for a non-finite or improper rotation (det ≠ 1, not
+  // orthonormal within 1e-6), a non-finite translation, until < now.
+  void set_target(double now, const Pose& target, double until);
+
+ private:
+  std::string name_;
+  double t0_ = 0, t1_ = 0;
+  Pose p0_, p1_;
 };
 
 // A motion over one step [t, t + h] (host/root_motion.h apply_root_motion): the

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -114,6 +115,10 @@ struct Scene {
   // some group has drag and the scene no [fluid] table
   Fluid fluid;
   bool has_fluid = false;
+  // The motions the host sets by name (motion = "host", include/manyrods/drive.h
+  // HostMotion), shared by the holds and colliders that name them; a file run
+  // holds them at their initial (identity) pose.
+  std::vector<std::shared_ptr<HostMotion>> host_motions;
 };
 
 // Parses and validates. `overrides` set numeric values by key path before

@@ -33,6 +33,7 @@ from ._core import (  # noqa: F401
     __version__,
     load_scene,
     parse_scene,
+    read_output,
 )
 
 __all__ = [
@@ -46,4 +47,5 @@ __all__ = [
     "ValidityError",
     "load_scene",
     "parse_scene",
+    "read_output",
 ]

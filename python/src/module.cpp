@@ -454,6 +454,26 @@ NB_MODULE(_core, m) {
           "root"_a = "clamped", "tip"_a = "free", "stiff"_a = false, "name"_a = "",
           "A rod along the polyline `nodes` (n+1, 3): its shape is the rest shape. `frames` (n, 3, 3), rows d1, d2, "
           "d3; default: parallel transport (twist-free) from `first_normal`.")
+      .def_prop_rw(
+          "root_driver",
+          [](const RodSpec& r) -> std::optional<std::string> {
+            if (auto h = std::dynamic_pointer_cast<const manyrods::HostMotion>(r.root_motion)) return h->name();
+            return std::nullopt;
+          },
+          [](RodSpec& r, std::optional<std::string> name) {
+            r.root_motion = name ? std::make_shared<manyrods::HostMotion>(*name) : nullptr;
+          },
+          "the host motion the held root follows, by name (Batch.set_driver_pose); None: static")
+      .def_prop_rw(
+          "tip_driver",
+          [](const RodSpec& r) -> std::optional<std::string> {
+            if (auto h = std::dynamic_pointer_cast<const manyrods::HostMotion>(r.tip_motion)) return h->name();
+            return std::nullopt;
+          },
+          [](RodSpec& r, std::optional<std::string> name) {
+            r.tip_motion = name ? std::make_shared<manyrods::HostMotion>(*name) : nullptr;
+          },
+          "the host motion the held tip follows, by name; None: static")
       .def_rw("name", &RodSpec::name)
       .def_rw("section", &RodSpec::section)
       .def_rw("material", &RodSpec::material)
@@ -479,16 +499,16 @@ NB_MODULE(_core, m) {
           "node"_a, "kind"_a = "clamped", "Hold interior node `node` (1 … n−1) in place (pinned) or also in orientation (clamped).")
       .def_prop_ro("elements", &RodSpec::elements)
       .def_prop_rw(
-          "nodes", [](const RodSpec& r) { return points_array(r.nodes); },
+          "nodes", [](const RodSpec& r) { return nb::cast(points_array(r.nodes), nb::rv_policy::move); },
           [](RodSpec& r, const Points& a) { r.nodes = points_of(a, "nodes"); }, "(n+1, 3) centreline, m (a copy)")
       .def_prop_rw(
-          "frames", [](const RodSpec& r) { return frames_array(r.frames); },
+          "frames", [](const RodSpec& r) { return nb::cast(frames_array(r.frames), nb::rv_policy::move); },
           [](RodSpec& r, const Frames& a) { r.frames = frames_of(a, "frames"); }, "(n, 3, 3) element frames (a copy)")
       .def_prop_rw(
-          "velocities", [](const RodSpec& r) { return points_array(r.velocities); },
+          "velocities", [](const RodSpec& r) { return nb::cast(points_array(r.velocities), nb::rv_policy::move); },
           [](RodSpec& r, const Points& a) { r.velocities = points_of(a, "velocities"); }, "(n+1, 3) initial, m/s")
       .def_prop_rw(
-          "rest_curvature", [](const RodSpec& r) { return points_array(r.rest_curvature); },
+          "rest_curvature", [](const RodSpec& r) { return nb::cast(points_array(r.rest_curvature), nb::rv_policy::move); },
           [](RodSpec& r, const Points& a) { r.rest_curvature = points_of(a, "rest_curvature"); },
           "(n−1, 3) U0, 1/m (empty: the given shape is the rest shape)");
 
@@ -639,7 +659,32 @@ NB_MODULE(_core, m) {
            "FNV-1a hash of the state: equal hashes = bit-identical states")
       .def(
           "save", [](const PyBatch& p, const std::string& path) { p.b.save(path); }, "path"_a,
-          "An HDF5 file (the run layout) with this state as its one frame and checkpoint");
+          "An HDF5 file (the run layout) with this state as its one frame and checkpoint")
+      .def_prop_ro(
+          "drivers",
+          [](const PyBatch& p) {
+            std::vector<std::string> v;
+            for (int i = 0; i < p.b.driver_count(); ++i) v.push_back(p.b.driver_name(i));
+            return v;
+          },
+          "the names of the batch's host motions (a scene's motion = \"host\", Rod.root_driver / tip_driver)")
+      .def(
+          "set_driver_pose",
+          [](PyBatch& p, const std::string& name, std::optional<std::vector<double>> rotation,
+             std::optional<std::vector<double>> translation, double time) {
+            manyrods::Pose pose;
+            if (rotation) {
+              if (rotation->size() != 9)
+                throw manyrods::InputError("rotation: needs 9 values, a 3 × 3 matrix row by row (got " +
+                                           std::to_string(rotation->size()) + ")");
+              std::copy(rotation->begin(), rotation->end(), pose.rotation.begin());
+            }
+            if (translation) pose.translation = vec3(*translation, "translation");
+            p.b.set_driver_pose(p.b.find_driver(name), pose, time);
+          },
+          "name"_a, "rotation"_a = nb::none(), "translation"_a = nb::none(), nb::kw_only(), "time"_a,
+          "Moves the host motion `name` from its pose at Batch.time to this pose (rotation: 9 numbers row by row, "
+          "default identity; translation default 0) at `time` >= Batch.time, and holds it there");
 
   // ---- scenes (include/manyrods/scene.h)
   nb::class_<Scene>(m, "Scene", "A parsed, validated scene file")
@@ -697,6 +742,31 @@ NB_MODULE(_core, m) {
           "parameters and the per-variation summary as NumPy arrays");
 
   m.def("load_scene", &manyrods::scene::load_scene, "path"_a, "Read and validate a TOML scene file");
+  m.def(
+      "read_output",
+      [](const std::string& path) {
+        const manyrods::h5::Reader r(path);
+        const manyrods::h5::Output& o = r.output();
+        const std::size_t frames = std::size_t(r.frames()), nodes = std::size_t(o.nodes);
+        auto* x = new std::vector<double>(frames * nodes * 3);
+        nb::capsule owner(x, [](void* v) noexcept { delete static_cast<std::vector<double>*>(v); });
+        std::vector<double> f;
+        for (std::size_t k = 0; k < frames; ++k) {
+          r.read_positions(std::int64_t(k), f);
+          std::copy(f.begin(), f.end(), x->begin() + std::ptrdiff_t(k * nodes * 3));
+        }
+        nb::dict d;
+        d["time"] = o.time;
+        d["node_offsets"] = o.node_offsets;
+        d["rod_group"] = o.rod_group;
+        d["rod_width"] = o.rod_width;
+        d["group_names"] = o.group_names;
+        d["node_position"] = nb::ndarray<nb::numpy, double>(x->data(), {frames, nodes, 3}, owner);
+        return d;
+      },
+      "path"_a,
+      "A manyrods output file's frames: time [frames], node_position [frames, nodes, 3] (m), node_offsets "
+      "[rods + 1], rod_group, rod_width, group_names");
   m.def("parse_scene",
         [](const std::string& text, const std::string& source) { return manyrods::scene::parse_scene(text, source); },
         "text"_a, "source"_a = "<string>", "Parse and validate a scene from TOML text");

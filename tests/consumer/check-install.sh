@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Installs the build tree into a fresh prefix, builds tests/consumer against
 # it as a user's project would, checks what reached the consumer's compile
-# commands, and runs it on a scene.
-# Usage: check-install.sh BUILD_DIR CONSUMER_SOURCE WORK_DIR SCENE_FILE
+# commands, and runs it on a scene; then builds and runs the C example
+# (examples/c, the C API's shared library) against it the same way.
+# Usage: check-install.sh BUILD_DIR CONSUMER_SOURCE WORK_DIR SCENE_FILE [C_EXAMPLE_DIR]
 set -euo pipefail
-build=$1 src=$2 work=$3 scene=$4
+build=$1 src=$2 work=$3 scene=$4 c_example=${5:-}
 rm -rf "$work"
 mkdir -p "$work"
 cmake --install "$build" --prefix "$work/prefix" >"$work/install.log"
@@ -29,7 +30,20 @@ for h in "$work"/prefix/include/manyrods/*.h; do  # every public header compiles
   echo "#include \"manyrods/$(basename "$h")\"" | g++ -std=c++20 -fsyntax-only -I"$work/prefix/include" -x c++ - \
     || { echo "FAIL: $(basename "$h") does not compile on its own"; fail=1; }
 done
+echo '#include "manyrods/manyrods_c.h"' | gcc -std=c11 -pedantic -Werror -fsyntax-only -I"$work/prefix/include" -x c - \
+  || { echo "FAIL: manyrods_c.h is not C11"; fail=1; }
 "$work/build/consumer" "$scene" || { echo "FAIL: the consumer did not run"; fail=1; }
 [ -f "$work/build/librodplugin.so" ] || { echo "FAIL: no shared plug-in"; fail=1; }
+if [ -n "$c_example" ]; then
+  cmake -S "$c_example" -B "$work/build-c" "${gen[@]}" -DCMAKE_PREFIX_PATH="$work/prefix" \
+    -DCMAKE_EXPORT_COMPILE_COMMANDS=ON >"$work/configure-c.log"
+  cmake --build "$work/build-c" >"$work/build-c.log" || { cat "$work/build-c.log"; exit 1; }
+  if grep -qE -- "-march=native|-fopenmp" "$work/build-c/compile_commands.json"; then
+    echo "FAIL: build flags reached the C example's compile commands"; fail=1
+  fi
+  "$work/build-c/host_loop" "$c_example/head.toml" 8 || { echo "FAIL: the C example did not run"; fail=1; }
+  readelf -d "$work/build-c/host_loop" | grep -q 'NEEDED.*libmanyrods_c.so.0' \
+    || { echo "FAIL: the C example does not link libmanyrods_c.so.0"; fail=1; }
+fi
 if [ "$fail" -eq 0 ]; then echo "install tree OK: consumer built and ran, no build flags leaked"; fi
 exit "$fail"

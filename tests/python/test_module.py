@@ -257,3 +257,55 @@ def test_save_writes_a_file_the_tool_can_continue(tmp_path):
     if CLI:
         subprocess.run([CLI, "run", "--restart", str(tmp_path / "saved.h5"), "-o", str(tmp_path / "more.h5"),
                         "--duration", "0.05", "--no-progress"], check=True, capture_output=True)
+
+
+# ---- host-driven motion ------------------------------------------------------------------
+
+
+def test_a_driven_root_follows_the_poses_the_host_sets():
+    rods = [cantilever(), cantilever()]
+    for r in rods:
+        r.root_driver = "hand"  # one name: one motion, shared
+    rods[1].damping = manyrods.Damping.shear_extension(0.01, 0.01)
+    b = manyrods.Batch(rods, gravity=[0, 0, -9.81])
+    assert b.drivers == ["hand"]
+    assert rods[0].root_driver == "hand"
+    # a quarter turn about x and 2 cm along y, reached at t = 0.02 s
+    rx = [1, 0, 0, 0, 0, -1, 0, 1, 0]
+    b.set_driver_pose("hand", rotation=rx, translation=[0, 0.02, 0], time=0.02)
+    n = 200
+    b.step(0.01 / n, n)
+    for rod in (0, 1):  # halfway: translation halfway (linear)
+        np.testing.assert_allclose(b.node_position[:, b.node_range(rod).start], [0, 0.01, 0], atol=1e-13)
+    b.step(0.01 / n, n)
+    for rod in (0, 1):  # at the pose: the clamp frame turned with it, d3 from +z to -y
+        np.testing.assert_allclose(b.node_position[:, b.node_range(rod).start], [0, 0.02, 0], atol=1e-13)
+    with pytest.raises(ValueError, match="no driver named \"head\""):
+        b.set_driver_pose("head", time=1.0)
+    with pytest.raises(ValueError, match="before the batch's time"):
+        b.set_driver_pose("hand", time=0.0)
+    with pytest.raises(ValueError, match="proper rotation"):
+        b.set_driver_pose("hand", rotation=[1, 0, 0, 0, 1, 0, 0, 0, -1], time=1.0)
+
+
+def test_two_batches_of_one_scene_are_driven_apart(tmp_path):
+    scene = tmp_path / "hand.toml"
+    scene.write_text(textwrap.dedent("""
+        [simulation]
+        dt = 1e-4
+        duration = 0.1
+        gravity = [0.0, 0.0, 0.0]
+        [[rods]]
+        elements = 8
+        length = 0.2
+        section = { shape = "circle", radius = 0.005 }
+        material = { density = 1000.0, youngs_modulus = 1e6, poisson_ratio = 0.5 }
+        root = { kind = "pinned", motion = "host", name = "hand" }
+    """))
+    s = manyrods.load_scene(str(scene))
+    a, b = s.build_batch(), s.build_batch()
+    a.set_driver_pose("hand", translation=[0.01, 0, 0], time=0.01)
+    a.step(1e-4, 100)
+    b.step(1e-4, 100)
+    assert a.node_position[0, a.node_range(0).start] == pytest.approx(0.01, abs=1e-14)
+    assert b.node_position[0, b.node_range(0).start] == 0.0

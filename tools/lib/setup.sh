@@ -74,9 +74,9 @@ manyrods_configure() {
     py=(-DPython_EXECUTABLE="$MANYRODS_VENV/bin/python")
   fi
   if [ -f "$MANYRODS_BUILD/CMakeCache.txt" ]; then
-    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" -DCMAKE_BUILD_TYPE=Release "${py[@]}" >/dev/null
+    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" -DCMAKE_BUILD_TYPE=Release "${py[@]}" "$@" >/dev/null
   else
-    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release "${py[@]}"
+    cmake -S "$MANYRODS_ROOT" -B "$MANYRODS_BUILD" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release "${py[@]}" "$@"
   fi
 }
 
