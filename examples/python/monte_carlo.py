@@ -5,7 +5,7 @@ each deflected by a static tip load and released; the damping ratio of each,
 measured from its tip's free vibration, against the linear theory
 zeta = tau * omega_1 / 2 (Euler-Bernoulli omega_1 of each rod's E).
 
-    .venv/bin/python examples/python/monte_carlo.py [--rods 128] [--seed 1] [--out monte_carlo.png]
+    .venv/bin/python examples/python/monte_carlo.py [--rods 64] [--seed 1] [--out monte_carlo.png]
 
 (with build/python on PYTHONPATH, or the package installed with `pip install .`).
 Every rod is one slice of one batch: the step runs them all at once, and the
@@ -35,13 +35,14 @@ def omega1(E):
 
 
 def damping_ratio(t, x):
-    """From the maxima of x(t) once below 25 % of the first, down to 1 %
-    (the linear regime, as the demo measures it): the logarithmic decrement."""
+    """From the maxima of the deflection x(t) once below 25 % of the initial
+    one (the linear regime, as the demo measures it), down to 3 %: the
+    logarithmic decrement."""
     i = np.flatnonzero((x[1:-1] >= x[:-2]) & (x[1:-1] > x[2:]) & (x[1:-1] > 0)) + 1
     c2 = 0.5 * (x[i - 1] - 2 * x[i] + x[i + 1])
     c1 = 0.5 * (x[i + 1] - x[i - 1])
     peak = x[i] - c1 * c1 / (4 * c2)  # parabola through three samples
-    ok = (peak < 0.25 * x[0]) & (peak > 0.01 * x[0])
+    ok = (peak < 0.25 * x[0]) & (peak > 0.03 * x[0])
     if ok.sum() < 3:
         return np.nan
     p = peak[ok]
@@ -51,7 +52,7 @@ def damping_ratio(t, x):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rods", type=int, default=128)
+    ap.add_argument("--rods", type=int, default=64)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--duration", type=float, default=30.0, help="simulated seconds")
     ap.add_argument("--out", default="monte_carlo.png")
@@ -77,12 +78,13 @@ def main():
     dt, every = batch.dt, 8
     samples = int(args.duration / (dt * every))
     x = batch.node_position  # a view: it follows the steps
-    record = np.empty((samples + 1, args.rods))
-    record[0] = x[0, tips]
+    base = x[0, [batch.node_range(r).start for r in range(args.rods)]].copy()
+    record = np.empty((samples + 1, args.rods))  # tip deflections along x
+    record[0] = x[0, tips] - base
     start = time.perf_counter()
     for k in range(1, samples + 1):
         batch.step(dt, every)
-        record[k] = x[0, tips]
+        record[k] = x[0, tips] - base
     wall = time.perf_counter() - start
     t = np.arange(samples + 1) * dt * every
     print(f"{args.rods} rods x {ELEMENTS} elements, {samples * every} steps of {dt:.3g} s in {wall:.1f} s wall: "
@@ -91,20 +93,21 @@ def main():
     zeta = np.array([damping_ratio(t, record[:, r]) for r in range(args.rods)])
     theory = tau * omega1(E) / 2
     err = (zeta - theory) / theory
-    good = np.isfinite(zeta)
-    print(f"damping ratio: measured mean {np.nanmean(zeta):.4f} sd {np.nanstd(zeta):.4f}; linear theory mean "
-          f"{theory.mean():.4f} sd {theory.std():.4f}; per rod (measured - theory)/theory: mean {np.nanmean(err):+.3%}, "
-          f"largest {np.nanmax(np.abs(err)):.3%} ({good.sum()} of {args.rods} rods measured)")
+    m = np.isfinite(zeta)  # rods with three maxima between 25 % and 3 % of the deflection
+    print(f"damping ratio over the {m.sum()} of {args.rods} rods measured (the others decay too slowly for "
+          f"{args.duration:g} s): measured mean {zeta[m].mean():.4f} sd {zeta[m].std():.4f}, linear theory mean "
+          f"{theory[m].mean():.4f} sd {theory[m].std():.4f}; per rod (measured - theory)/theory: mean "
+          f"{err[m].mean():+.2%}, largest {np.abs(err[m]).max():.2%}")
 
     fig, (h, s) = plt.subplots(1, 2, figsize=(11, 4.2))
-    bins = np.linspace(min(np.nanmin(zeta), theory.min()), max(np.nanmax(zeta), theory.max()), 25)
-    h.hist(theory, bins=bins, alpha=0.5, label="linear theory  tau * omega_1 / 2")
-    h.hist(zeta[good], bins=bins, histtype="step", lw=2, color="k", label="measured (free vibration)")
+    bins = np.linspace(min(zeta[m].min(), theory[m].min()), max(zeta[m].max(), theory[m].max()), 25)
+    h.hist(theory[m], bins=bins, alpha=0.5, label="linear theory  tau * omega_1 / 2")
+    h.hist(zeta[m], bins=bins, histtype="step", lw=2, color="k", label="measured (free vibration)")
     h.set_xlabel("damping ratio")
     h.set_ylabel("rods")
-    h.set_title(f"{args.rods} cantilevers: E lognormal (median 1 MPa, sigma 0.2), tau ~ N(20 ms, 4 ms)")
+    h.set_title(f"{m.sum()} cantilevers: E lognormal (median 1 MPa, sigma 0.2), tau ~ N(20 ms, 4 ms)", fontsize=10)
     h.legend()
-    s.plot(theory, zeta, ".", ms=4)
+    s.plot(theory[m], zeta[m], ".", ms=4)
     lim = [bins[0], bins[-1]]
     s.plot(lim, lim, "k--", lw=1, label="measured = theory")
     s.set_xlabel("linear theory  tau * omega_1 / 2")
