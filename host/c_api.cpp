@@ -94,17 +94,13 @@ manyrods::Section section_of(const mr_rod_desc& d, std::size_t i) {
   throw InputError("rod " + std::to_string(i) + ": shape is not an mr_shape (got " + std::to_string(int(d.shape)) + ")");
 }
 
-// One HostMotion per driver name among the rods described.
-std::shared_ptr<const manyrods::RootMotion> driver(std::vector<std::shared_ptr<manyrods::HostMotion>>& known,
-                                                   const char* name) {
-  if (!name) return nullptr;
-  for (const auto& h : known)
-    if (h->name() == name) return h;
-  if (!*name) throw InputError("a driver name must not be empty (NULL: no driver)");
-  return known.emplace_back(std::make_shared<manyrods::HostMotion>(name));
+// A held end on the host motion `name` (NULL: static). Rods naming one
+// driver share it: AnyBatch::from_rods merges host motions by name.
+std::shared_ptr<const manyrods::RootMotion> driver(const char* name) {
+  return name ? std::make_shared<manyrods::HostMotion>(name) : nullptr;
 }
 
-RodSpec rod_of(const mr_rod_desc& d, std::size_t i, std::vector<std::shared_ptr<manyrods::HostMotion>>& drivers) {
+RodSpec rod_of(const mr_rod_desc& d, std::size_t i) {
   const std::string at = "rod " + std::to_string(i) + ": ";
   if (d.elements < 1) throw InputError(at + "elements must be >= 1 (got " + std::to_string(d.elements) + ")");
   if (!d.nodes) throw InputError(at + "nodes is NULL (elements + 1 points, x y z interleaved)");
@@ -133,8 +129,8 @@ RodSpec rod_of(const mr_rod_desc& d, std::size_t i, std::vector<std::shared_ptr<
     r.damping = manyrods::Damping::shear_extension(d.tau_shear, d.tau_extension);
   set_end(r, true, d.root, i);
   set_end(r, false, d.tip, i);
-  r.root_motion = driver(drivers, d.root_driver);
-  r.tip_motion = driver(drivers, d.tip_driver);
+  r.root_motion = driver(d.root_driver);
+  r.tip_motion = driver(d.tip_driver);
   if (r.root_motion && d.root == MR_END_FREE) throw InputError(at + "root_driver needs a held root (clamped or pinned)");
   if (r.tip_motion && d.tip == MR_END_FREE) throw InputError(at + "tip_driver needs a held tip (clamped or pinned)");
   r.stiff_implicit = d.stiff != 0;
@@ -164,6 +160,11 @@ mr_status copy_positions(const mr_batch* b, Out* xyz, std::size_t count, const c
     }
   });
   return MR_OK;
+}
+
+template <class T>
+mr_precision precision_of(const manyrods::RodBatch<T>&) {
+  return std::is_same_v<T, float> ? MR_FLOAT : MR_DOUBLE;
 }
 
 template <class T, std::size_t N>
@@ -225,10 +226,9 @@ mr_status mr_batch_create(const mr_rod_desc* rods, size_t count, const mr_batch_
   if (settings) st = *settings;
   MR_CHECK_ARG(st.precision == MR_DOUBLE || st.precision == MR_FLOAT, "precision is not an mr_precision");
   return guard([&] {
-    std::vector<std::shared_ptr<manyrods::HostMotion>> drivers;
     std::vector<RodSpec> specs;
     specs.reserve(count);
-    for (std::size_t i = 0; i < count; ++i) specs.push_back(rod_of(rods[i], i, drivers));
+    for (std::size_t i = 0; i < count; ++i) specs.push_back(rod_of(rods[i], i));
     const auto p = st.precision == MR_FLOAT ? manyrods::scene::Precision::float32 : manyrods::scene::Precision::float64;
     auto b = std::make_unique<mr_batch>(
         mr_batch{AnyBatch::from_rods(std::move(specs), p, {st.gravity[0], st.gravity[1], st.gravity[2]}), 1});
@@ -308,8 +308,7 @@ mr_status mr_batch_copy_positions_f64(const mr_batch* b, double* xyz, size_t cou
 mr_status mr_batch_state_view(const mr_batch* b, mr_state_view* out) {
   MR_CHECK_ARG(b && out, "a NULL argument");
   b->b.visit([&](const auto& rb) {
-    using T = typename std::remove_reference_t<decltype(rb)>::value_type;
-    out->precision = std::is_same_v<T, float> ? MR_FLOAT : MR_DOUBLE;
+    out->precision = precision_of(rb);
     out->slots = std::size_t(rb.slots());
     out->component_stride = stride_of(rb.state.node_x);
     out->node_position = rb.state.node_x[0].data();
@@ -332,8 +331,7 @@ mr_status mr_batch_rod_slots(const mr_batch* b, size_t rod, size_t* first_slot, 
 mr_status mr_batch_loads_view(mr_batch* b, mr_loads_view* out) {
   MR_CHECK_ARG(b && out, "a NULL argument");
   b->b.visit([&](auto& rb) {
-    using T = typename std::remove_reference_t<decltype(rb)>::value_type;
-    out->precision = std::is_same_v<T, float> ? MR_FLOAT : MR_DOUBLE;
+    out->precision = precision_of(rb);
     out->slots = std::size_t(rb.slots());
     out->component_stride = stride_of(rb.loads.node_force);
     out->node_force = rb.loads.node_force[0].data();

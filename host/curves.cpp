@@ -291,6 +291,22 @@ double mean(const std::vector<double>& v, std::size_t b, std::size_t e) {
   return s / double(e - b);
 }
 
+// Curve c's mean width from a file's widths: constant (1 value), uniform
+// (one per curve), vertex (one per point; the curve's are [o, o + n)); -1
+// when the widths are none of these (the caller's other forms, or none).
+double curve_width(const std::vector<double>& w, std::size_t curves, std::size_t points, std::size_t c,
+                   std::size_t o, std::size_t n) {
+  if (w.size() == 1) return w[0];
+  if (w.size() == curves && w.size() != points) return w[c];
+  if (w.size() == points && n > 0) return mean(w, o, o + n);
+  return -1;
+}
+
+void check_width(const Curve& k) {
+  if (!(k.width > 0 && std::isfinite(k.width)))
+    throw InputError(k.label + ": widths must be finite and > 0 (mean " + std::to_string(k.width) + ")");
+}
+
 }  // namespace
 
 std::vector<Curve> read_usda_curves(std::string_view text, const std::string& source) {
@@ -344,12 +360,11 @@ std::vector<Curve> read_usda_curves(std::string_view text, const std::string& so
                 " of the file)";
       std::vector<Vec3> pts(n);
       for (std::size_t i = 0; i < n; ++i) pts[i] = {xyz[3 * (o + i)], xyz[3 * (o + i) + 1], xyz[3 * (o + i) + 2]};
-      if (nw == 1) k.width = widths[0];
-      else if (nw == counts.size() && nw != total) k.width = widths[c];
-      else if (nw == total && n > 0) k.width = mean(widths, o, o + n);
-      else if (nw == varying_total && nv > 0) k.width = mean(widths, ov, ov + nv);
-      if (wa.found() && !(k.width > 0 && std::isfinite(k.width)))
-        throw InputError(k.label + ": widths must be finite and > 0 (mean " + std::to_string(k.width) + ")");
+      if (wa.found()) {
+        k.width = curve_width(widths, counts.size(), total, c, o, n);
+        if (k.width == -1 && nw == varying_total && nv > 0) k.width = mean(widths, ov, ov + nv);
+        check_width(k);
+      }
       if (type == "cubic") {
         for (const Vec3& q : pts)
           for (double x : q)
@@ -470,11 +485,10 @@ std::vector<Curve> read_h5_curves(const std::string& path) {
     Curve k;
     k.label = path + ": curve " + std::to_string(c);
     for (std::size_t i = 0; i < n; ++i) k.points.push_back({xyz[3 * (o + i)], xyz[3 * (o + i) + 1], xyz[3 * (o + i) + 2]});
-    if (nw == 1) k.width = widths[0];
-    else if (nw == counts.size() && nw != total) k.width = widths[c];
-    else if (nw == total && n > 0) k.width = mean(widths, o, o + n);
-    if (nw > 0 && !(k.width > 0 && std::isfinite(k.width)))
-      throw InputError(k.label + ": widths must be finite and > 0 (mean " + std::to_string(k.width) + ")");
+    if (nw > 0) {
+      k.width = curve_width(widths, counts.size(), total, c, o, n);
+      check_width(k);
+    }
     out.push_back(std::move(k));
     o += n;
   }
