@@ -33,6 +33,7 @@
 #include "host/diagnostics.h"
 #include "host/fluid_stage.h"
 #include "host/implicit_solve.h"
+#include "host/isa_table.h"
 #include "host/root_motion.h"
 #include "host/schedule.h"
 #include "host/stages.h"
@@ -149,6 +150,11 @@ void step_rod_contact(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) 
 // stage, the contact stage over the whole batch, and the rest (step_rod_contact).
 template <Terms kT, Viscous kV, class T>
 void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
+#ifndef MANYRODS_ISA_VARIANT  // the build of the step for the CPU (host/isa_table.h)
+  constexpr int kSlot = kV == Viscous::implicit ? isa::slot(isa::kStepNTerms, kT) : -1;
+  if constexpr (kSlot >= 0)
+    if (const isa::StepTable* t = isa::active_table()) return isa::fns<T>(*t).step_n[kSlot](b, dt, count, ex);
+#endif
   detail::check_contact<kT>(b);
   if constexpr (kT.rod_contact) {
     step_rod_contact<kT, kV>(b, dt, count, ex);
@@ -214,6 +220,11 @@ struct Pefrl {
 // PEFRL keeps its order; tests/test_drive.cpp).
 template <Terms kT, Viscous kV, int kEulerOrder, class T>
 void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex) {
+#ifndef MANYRODS_ISA_VARIANT
+  constexpr int kSlot = kV == Viscous::implicit && kEulerOrder == 4 ? isa::slot(isa::kPefrlTerms, kT) : -1;
+  if constexpr (kSlot >= 0)
+    if (const isa::StepTable* t = isa::active_table()) return isa::fns<T>(*t).step_pefrl[kSlot](b, dt, ex);
+#endif
   constexpr bool kImplicit = kT.kelvin_voigt && kV == Viscous::implicit;
   constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
   if constexpr (kT.colliders || kT.rod_contact)

@@ -25,6 +25,7 @@
 #include <sstream>
 
 #include "manyrods/h5io.h"
+#include "manyrods/isa.h"
 #include "manyrods/runner.h"
 #include "manyrods/scene.h"
 #include "manyrods/sweep.h"
@@ -61,9 +62,10 @@ void profile_lines(const StageTimes& st) {
 void summary_line(const RunResult& r, const std::string& out) {
   std::fprintf(stderr,
                "manyrods: %s: t = %.6g s after %lld steps (dt = %.4g s), %lld frames, %lld elements, "
-               "%.3g element-steps/s, %.3g s wall, state hash %016llx -> %s\n",
+               "%.3g element-steps/s, %.3g s wall, state hash %016llx, step path %s -> %s\n",
                r.interrupted ? "stopped" : "done", r.time, (long long)r.steps, r.dt, (long long)r.frames,
-               (long long)r.elements, r.element_steps_per_s, r.wall_s, (unsigned long long)r.state_hash, out.c_str());
+               (long long)r.elements, r.element_steps_per_s, r.wall_s, (unsigned long long)r.state_hash,
+               active_step_path().c_str(), out.c_str());
   if (r.max_contacts > 0 || r.max_penetration > 0)
     std::fprintf(stderr, "manyrods: contact: up to %lld contacts in a frame, deepest overlap %.3g m\n",
                  (long long)r.max_contacts, r.max_penetration);
@@ -454,6 +456,12 @@ int report(const std::exception& e) {
 int main(int argc, char** argv) {
   CLI::App app{"manyrods: many Cosserat rods with Kelvin-Voigt damping (scenes: docs/scenes.md)"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", [] {
+    std::string v = "manyrods " MANYRODS_VERSION "\nstep paths (include/manyrods/isa.h, MANYRODS_ISA):";
+    for (const StepPath& p : step_paths())
+      v += "\n  " + p.name + " (" + p.target + ")" + (p.supported ? "" : " not on this CPU") + (p.active ? ", active" : "");
+    return v;
+  });
   Options o;
   const Commands c = add_commands(app, o);
   try {

@@ -139,32 +139,36 @@ NonFinite find_non_finite(const RodBatch<T>& b);
   EXTERN template void advance<TERMS, Viscous::implicit, Integrator::pefrl, T>(                          \
       RodBatch<T>&, T, std::int64_t, const Exec&, const AdvanceOptions&);                                \
   EXTERN template Energies energies<TERMS, T>(const RodBatch<T>&, int);
-#define MANYRODS_STEP_ALL_TERMS(EXTERN, T)                   \
-  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kAllTerms)           \
-  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoKelvinVoigt)      \
-  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoGravity)          \
-  MANYRODS_STEP_DECLARATIONS(EXTERN, T, kNoKelvinVoigtNoGravity)
+// The Terms lists, each named once: the library's explicit instantiations,
+// the extern declarations below and the run-time step paths
+// (include/manyrods/isa.h) are all built from them. X(ARGS..., TERMS).
+#define MANYRODS_PLAIN_TERMS(X, ...) \
+  X(__VA_ARGS__, kAllTerms) X(__VA_ARGS__, kNoKelvinVoigt) X(__VA_ARGS__, kNoGravity) X(__VA_ARGS__, kNoKelvinVoigtNoGravity)
 // With contact (include/manyrods/contact.h): colliders, rod–rod/self, both;
 // each with and without the Kelvin–Voigt term, with gravity (a scene without
 // gravity sets it to zero). Position Verlet only.
+#define MANYRODS_CONTACT_TERMS(X, ...)                                                          \
+  X(__VA_ARGS__, kColliders) X(__VA_ARGS__, kRodContact) X(__VA_ARGS__, kAllContact)           \
+  X(__VA_ARGS__, kCollidersNoKelvinVoigt) X(__VA_ARGS__, kRodContactNoKelvinVoigt)             \
+  X(__VA_ARGS__, kAllContactNoKelvinVoigt)
+
+#define MANYRODS_STEP_ALL_TERMS(EXTERN, T) MANYRODS_PLAIN_TERMS(MANYRODS_STEP_DECLARATIONS, EXTERN, T)
 #define MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, TERMS)                                             \
   EXTERN template void step_n<TERMS, Viscous::implicit, T>(RodBatch<T>&, T, std::int64_t, const Exec&);  \
   EXTERN template void advance<TERMS, Viscous::implicit, Integrator::position_verlet, T>(                \
       RodBatch<T>&, T, std::int64_t, const Exec&, const AdvanceOptions&);                                \
   EXTERN template Energies energies<TERMS, T>(const RodBatch<T>&, int);
-#define MANYRODS_STEP_CONTACT_TERMS(EXTERN, T)                         \
-  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kColliders)            \
-  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kRodContact)           \
-  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kAllContact)           \
-  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kCollidersNoKelvinVoigt) \
-  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kRodContactNoKelvinVoigt) \
-  MANYRODS_STEP_CONTACT_DECLARATIONS(EXTERN, T, kAllContactNoKelvinVoigt)
+#define MANYRODS_STEP_CONTACT_TERMS(EXTERN, T) MANYRODS_CONTACT_TERMS(MANYRODS_STEP_CONTACT_DECLARATIONS, EXTERN, T)
 
+// (host/isa_variant.cpp compiles the step for another instruction set and
+// must instantiate it itself)
+#ifndef MANYRODS_ISA_VARIANT
 MANYRODS_STEP_ALL_TERMS(extern, float)
 MANYRODS_STEP_ALL_TERMS(extern, double)
 MANYRODS_STEP_CONTACT_TERMS(extern, float)
 MANYRODS_STEP_CONTACT_TERMS(extern, double)
 extern template NonFinite find_non_finite<float>(const RodBatch<float>&);
 extern template NonFinite find_non_finite<double>(const RodBatch<double>&);
+#endif
 
 }  // namespace manyrods
