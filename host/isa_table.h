@@ -5,7 +5,7 @@
 // Slots: step_n for every Terms of MANYRODS_PLAIN_TERMS then
 // MANYRODS_CONTACT_TERMS (include/manyrods/step.h), step_pefrl (Euler order
 // 4) for MANYRODS_PLAIN_TERMS; Viscous::implicit only, which is what the
-// library holds. Other Terms are never dispatched.
+// library holds. Other Terms are never dispatched. Plus the FMA peak's loop.
 #pragma once
 
 #include <cstdint>
@@ -25,6 +25,9 @@ template <class T>
 struct StepFns {
   void (*step_n[std::size(kStepNTerms)])(RodBatch<T>&, T, std::int64_t, const Exec&);
   void (*step_pefrl[std::size(kPefrlTerms)])(RodBatch<T>&, T, const Exec&);
+  // the FMA peak's loop on this instruction set (host/roofline.h), which
+  // `manyrods bench` measures the step against
+  double (*fma_burst)(int threads, int inner, volatile T* sink);
 };
 
 struct StepTable {

@@ -10,6 +10,7 @@
 // itself (set-up, plans, profiling, the broad phase) is the baseline's.
 #include "host/integrators.h"
 #include "host/isa_table.h"
+#include "host/roofline.h"
 
 #ifndef MANYRODS_ISA_ENTRY
 #error "compiled by CMake only (MANYRODS_ISA in CMakeLists.txt)"
@@ -24,7 +25,8 @@ namespace {
 template <class T>
 constexpr isa::StepFns<T> step_fns() {
   return {{MANYRODS_PLAIN_TERMS(MANYRODS_ISA_STEP_N, T) MANYRODS_CONTACT_TERMS(MANYRODS_ISA_STEP_N, T)},
-          {MANYRODS_PLAIN_TERMS(MANYRODS_ISA_PEFRL, T)}};
+          {MANYRODS_PLAIN_TERMS(MANYRODS_ISA_PEFRL, T)},
+          &roofline::fma_burst<T>};
 }
 
 constexpr isa::StepTable kTable{step_fns<float>(), step_fns<double>()};

@@ -5,6 +5,8 @@
 //   manyrods sweep scene.toml --vary KEY=lo:hi:n [--vary ...] [--samples N --seed S] [--until T] -o sweep.h5 [--csv F]
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
+//   manyrods bench scene.toml [--threads N] [--steps K] [--repeats R] [--warmup W] [--precision P] [--json F]
+//   manyrods --version
 //
 // Exit status: 0 done, 3 done with validity warnings, 1 the simulation
 // failed (non-finite state, a validity error) or a tool failed, 2 bad input
@@ -18,12 +20,14 @@
 #include <algorithm>
 #include <cmath>
 #include <csignal>
+#include <ctime>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
 
+#include "manyrods/bench.h"
 #include "manyrods/h5io.h"
 #include "manyrods/isa.h"
 #include "manyrods/runner.h"
@@ -235,10 +239,14 @@ struct Options {
   bool force_dt = false, resume = false;
   double checkpoint_every = 300;
   std::vector<std::string> vary;
+  // bench
+  std::int64_t bench_steps = 0, bench_warmup = 0;
+  int repeats = 5;
+  std::string json, precision;
 };
 
 struct Commands {
-  CLI::App *run, *sweep, *exp, *plot;
+  CLI::App *run, *sweep, *exp, *plot, *bench;
 };
 
 // (CLI11's PositiveNumber prints the whole range up to DBL_MAX)
@@ -309,7 +317,7 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
 }
 
 Commands add_commands(CLI::App& app, Options& o) {
-  Commands c{add_run_command(app, o), add_sweep_command(app, o), nullptr, nullptr};
+  Commands c{add_run_command(app, o), add_sweep_command(app, o), nullptr, nullptr, nullptr};
   c.exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
   c.exp->add_option("input", o.input, "manyrods HDF5 output")->required();
   c.exp->add_option("--usd", o.usd, "USD ASCII file to write (.usda)")->required();
@@ -317,6 +325,18 @@ Commands add_commands(CLI::App& app, Options& o) {
   c.plot = app.add_subcommand("plot", "PNG plots of an output file with gnuplot");
   c.plot->add_option("input", o.input, "manyrods HDF5 output")->required();
   c.plot->add_option("--out-dir", o.plot_dir, "directory for the PNGs (default: <input>_plots)");
+  const CLI::Validator positive = number_check(true);
+  c.bench = app.add_subcommand("bench", "time a scene: element-steps/s, simulated s per wall s, stages, ceilings");
+  c.bench->add_option("scene", o.scene_path, "scene file (TOML)")->required();
+  c.bench->add_option("--threads", o.threads, "OpenMP threads")->check(positive);
+  c.bench->add_option("--steps", o.bench_steps, "steps per timed run (default: a multiple of 64 taking about 0.5 s)")
+      ->check(positive);
+  c.bench->add_option("--repeats", o.repeats, "timed runs; their median is reported (default 5)")->check(positive);
+  c.bench->add_option("--warmup", o.bench_warmup, "steps before the timed runs (default 64)")->check(positive);
+  c.bench->add_option("--precision", o.precision, "float or double (default: the scene's)")
+      ->check(CLI::IsMember({"float", "double"}));
+  c.bench->add_option("--json", o.json, "write the runs in Google Benchmark's JSON format to this file");
+  add_force_dt_flag(c.bench, o);
   return c;
 }
 
@@ -451,6 +471,33 @@ int report(const std::exception& e) {
   return 1;
 }
 
+int command_bench(const Options& o) {
+  Scene s = load_scene(o.scene_path);
+  if (o.force_dt) s.sim.force_dt = true;
+  BenchOptions opt;
+  opt.threads = o.threads;
+  opt.steps = o.bench_steps;
+  opt.repeats = o.repeats;
+  opt.warmup = o.bench_warmup;
+  if (!o.precision.empty()) opt.precision = o.precision == "float" ? Precision::float32 : Precision::float64;
+  const BenchResult r = bench_scene(s, opt);
+  std::fputs(bench_report(r).c_str(), stdout);
+  if (!o.json.empty()) {
+    const std::time_t now = std::time(nullptr);
+    char date[64];
+    std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%S%z", std::localtime(&now));
+    const std::string tmp = o.json + ".tmp";
+    {
+      std::ofstream out(tmp, std::ios::binary);
+      out << bench_json(r, date);
+      if (!out.flush()) throw SceneError(o.json + ": cannot write the JSON file");
+    }
+    std::filesystem::rename(tmp, o.json);
+    std::fprintf(stderr, "manyrods: wrote %s\n", o.json.c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -476,6 +523,7 @@ int main(int argc, char** argv) {
     if (c.sweep->parsed()) return command_sweep(o);
     if (c.exp->parsed()) return command_export(o);
     if (c.plot->parsed()) return plot(o.input, o.plot_dir);
+    if (c.bench->parsed()) return command_bench(o);
   } catch (const std::exception& e) {
     return report(e);
   }

@@ -117,6 +117,37 @@ def test_stepping_from_python_equals_the_command_line_tool_bit_for_bit(tmp_path)
     assert res["state_hash"] == cli_hash and res["steps"] == steps
 
 
+@pytest.mark.skipif(not CLI, reason="MANYRODS_CLI not set")
+def test_bench_times_a_scene_and_writes_google_benchmark_json(tmp_path):
+    import json
+    out = tmp_path / "bench.json"
+    r = subprocess.run([CLI, "bench", CANTILEVER, "--steps", "64", "--warmup", "64", "--repeats", "3",
+                        "--threads", "2", "--json", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    for what in ("element-steps/s", "simulated s per wall s", "bytes per element", "FMA peak", "STREAM triad",
+                 "% of peak", "profile", "resultants", "step path"):
+        assert what in r.stdout, (what, r.stdout)
+    doc = json.loads(out.read_text())
+    runs = [b for b in doc["benchmarks"] if b["run_type"] == "iteration"]
+    aggregates = {b["aggregate_name"]: b for b in doc["benchmarks"] if b["run_type"] == "aggregate"}
+    assert len(runs) == 3 and set(aggregates) == {"mean", "median", "stddev"}
+    for b in runs + [aggregates["median"]]:
+        assert b["time_unit"] == "ns" and b["iterations"] == 64 and b["threads"] == 2
+        assert b["real_time"] > 0 and b["items_per_second"] > 0
+        # items are element-steps: elements × steps per second of the entry's time
+        assert b["items_per_second"] == pytest.approx(b["elements"] * 1e9 / b["real_time"], rel=1e-9)
+    assert doc["context"]["peak_flops"] > 0 and doc["context"]["triad_bytes_per_second"] > 0
+    # the same steps as a batch of the scene: 64 warm-up, 3 timed and 1 profiled run of 64
+    batch = manyrods.load_scene(CANTILEVER).build_batch()
+    batch.step(batch.dt, count=64 * 5)  # (any thread count gives these bits)
+    hash_text = re.search(r"state hash ([0-9a-f]{16})", r.stdout).group(1)
+    assert int(hash_text, 16) == batch.state_hash()
+    assert runs[0]["label"].endswith("state hash " + hash_text)
+    # bad options are errors naming them
+    bad = subprocess.run([CLI, "bench", CANTILEVER, "--repeats", "0"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "--repeats" in bad.stderr
+
+
 def test_results_do_not_depend_on_the_thread_count():
     rods = [cantilever(damping=manyrods.Damping.shear_extension(0.01, 0.01)) for _ in range(8)]
     for i, r in enumerate(rods):
