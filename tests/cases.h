@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <numbers>
 #include <vector>
 
@@ -100,6 +101,28 @@ inline std::array<double, 2> time_orders(const std::array<double, 3>& err, const
                 o[i]);
   }
   return o;
+}
+
+// The golden batches (tests/test_golden.cpp, tests/test_isa.cpp): a damped
+// seed cantilever of 20 and one of 7 elements; for Position Verlet also a
+// damped stiff hair beside them and a cantilever on a shaking, nodding root.
+inline std::vector<RodSpec> golden_rods(bool verlet) {
+  const Damping kv = Damping::shear_extension(0.02, 0.02);
+  std::vector<RodSpec> rods{seed_cantilever(20, kv), seed_cantilever(7, kv)};
+  if (!verlet) return rods;
+  RodSpec h = hair(16, true, Damping::shear_extension(1e-4, 1e-4));
+  for (Vec3& x : h.nodes) x[1] += 0.5;  // beside the cantilevers
+  rods.push_back(h);
+  RodSpec driven = seed_cantilever(12, kv);
+  auto motion = std::make_shared<OscillatingMotion>();
+  motion->translation_amplitude = {0.01, 0, 0};
+  motion->axis = {0, 1, 0};
+  motion->rotation_amplitude = 0.2;
+  motion->frequency = 2;
+  motion->ramp_time = 0.05;
+  driven.root_motion = motion;
+  rods.push_back(driven);
+  return rods;
 }
 
 }  // namespace manyrods::cases

@@ -65,29 +65,10 @@ constexpr bool kRecordingBuild = true;
 constexpr bool kRecordingBuild = false;
 #endif
 
-std::vector<RodSpec> golden_rods(bool verlet) {
-  const Damping kv = Damping::shear_extension(0.02, 0.02);
-  std::vector<RodSpec> rods{cases::seed_cantilever(20, kv), cases::seed_cantilever(7, kv)};
-  if (!verlet) return rods;
-  RodSpec hair = cases::hair(16, true, Damping::shear_extension(1e-4, 1e-4));
-  for (Vec3& x : hair.nodes) x[1] += 0.5;  // beside the cantilevers
-  rods.push_back(hair);
-  RodSpec driven = cases::seed_cantilever(12, kv);
-  auto motion = std::make_shared<OscillatingMotion>();
-  motion->translation_amplitude = {0.01, 0, 0};
-  motion->axis = {0, 1, 0};
-  motion->rotation_amplitude = 0.2;
-  motion->frequency = 2;
-  motion->ramp_time = 0.05;
-  driven.root_motion = motion;
-  rods.push_back(driven);
-  return rods;
-}
-
 template <class T>
 Golden run(bool verlet) {
   // gravity bends the cantilevers (along e3) and the hair (along e1)
-  RodBatch<T> b = build_batch<T>(golden_rods(verlet), {-9.81, 0, -4});
+  RodBatch<T> b = build_batch<T>(cases::golden_rods(verlet), {-9.81, 0, -4});
   const T dt = T(0.5 * stable_dt(b).elastic);
   if (verlet)
     for (int block = 0; block < 4; ++block) step_n(b, dt, 50, Exec{2});

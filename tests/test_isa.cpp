@@ -35,24 +35,6 @@ struct RestoreAuto {
   ~RestoreAuto() { select_step_path("auto"); }
 };
 
-std::vector<RodSpec> rods(bool verlet) {
-  const Damping kv = Damping::shear_extension(0.02, 0.02);
-  std::vector<RodSpec> r{cases::seed_cantilever(20, kv), cases::seed_cantilever(7, kv)};
-  if (!verlet) return r;
-  RodSpec hair = cases::hair(16, true, Damping::shear_extension(1e-4, 1e-4));
-  for (Vec3& x : hair.nodes) x[1] += 0.5;
-  r.push_back(hair);
-  RodSpec driven = cases::seed_cantilever(12, kv);
-  auto motion = std::make_shared<OscillatingMotion>();
-  motion->translation_amplitude = {0.01, 0, 0};
-  motion->axis = {0, 1, 0};
-  motion->rotation_amplitude = 0.2;
-  motion->frequency = 2;
-  driven.root_motion = motion;
-  r.push_back(driven);
-  return r;
-}
-
 struct Run {
   std::uint64_t hash;
   std::vector<Vec3> nodes;  // every node of every rod
@@ -61,7 +43,7 @@ struct Run {
 
 template <class T>
 Run run(const std::string& what) {
-  std::vector<RodSpec> specs = rods(what != "pefrl");
+  std::vector<RodSpec> specs = cases::golden_rods(what != "pefrl");
   if (what == "contact") {  // side by side, 3 cm apart in y, bending (−e1) onto a plane at x = −2 cm
     specs.resize(2);
     specs[1] = cases::seed_cantilever(20, Damping::shear_extension(0.02, 0.02));
