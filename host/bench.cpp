@@ -14,6 +14,7 @@
 #include "host/roofline.h"
 #include "manyrods/any_batch.h"
 #include "manyrods/isa.h"
+#include "manyrods/runner.h"
 
 namespace manyrods::scene {
 namespace {
@@ -189,16 +190,8 @@ std::string bench_report(const BenchResult& r) {
                   100 * bytes / r.triad_bytes_per_s);
     o << line;
   }
-  const double total = r.stages.total();
-  if (total > 0) {
-    o << "profile (one more run, thread-seconds per stage):\n";
-    for (int i = 0; i < kStageCount; ++i) {
-      if (r.stages.calls[std::size_t(i)] == 0) continue;
-      std::snprintf(line, sizeof line, "  %-15s %10.4f s  %5.1f %%\n", stage_name(Stage(i)),
-                    r.stages.seconds[std::size_t(i)], 100 * r.stages.seconds[std::size_t(i)] / total);
-      o << line;
-    }
-  }
+  if (const std::string table = stage_report(r.stages); !table.empty())
+    o << "profile (one more run, thread-seconds per stage):\n" << table;
   std::snprintf(line, sizeof line, "state hash %016llx\n", (unsigned long long)r.state_hash);
   o << line;
   return o.str();
@@ -213,45 +206,46 @@ std::string bench_json(const BenchResult& r, const std::string& date) {
     << "    \"library_build_type\": \"release\",\n    \"step_path\": \"" << json_escape(r.step_path) << "\",\n"
     << "    \"peak_flops\": " << r.peak_flops << ",\n    \"triad_bytes_per_second\": " << r.triad_bytes_per_s << "\n  },\n"
     << "  \"benchmarks\": [\n";
-  const auto entry = [&](const char* type, int index, const char* aggregate, double seconds) {
+  // One entry: a run (aggregate null) or an aggregate. For stddev, as Google
+  // Benchmark writes it, the time fields hold the deviation and there are no rates.
+  const auto entry = [&](int index, const char* aggregate, double seconds) {
     const double ns_per_step = 1e9 * seconds / double(r.steps);
     o << "    {\"name\": \"" << json_escape(name) << (aggregate ? std::string("_") + aggregate : std::string()) << "\", "
       << "\"family_index\": 0, \"per_family_instance_index\": 0, \"run_name\": \"" << json_escape(name) << "\", "
-      << "\"run_type\": \"" << type << "\", \"repetitions\": " << r.run_s.size() << ", ";
+      << "\"run_type\": \"" << (aggregate ? "aggregate" : "iteration") << "\", \"repetitions\": " << r.run_s.size() << ", ";
     if (aggregate)
       o << "\"aggregate_name\": \"" << aggregate << "\", \"aggregate_unit\": \"time\", ";
     else
       o << "\"repetition_index\": " << index << ", ";
     o << "\"threads\": " << r.threads << ", \"iterations\": " << r.steps << ", \"real_time\": " << ns_per_step
-      << ", \"cpu_time\": " << ns_per_step << ", \"time_unit\": \"ns\", "
-      << "\"items_per_second\": " << double(r.elements) * double(r.steps) / seconds << ", "
-      << "\"sim_s_per_s\": " << double(r.steps) * r.dt / seconds << ", "
-      << "\"bytes_per_element\": " << r.bytes_per_element << ", \"elements\": " << r.elements << ", "
-      << "\"label\": \"" << json_escape(r.terms + ", " + r.integrator + ", path " + r.step_path) << ", state hash ";
+      << ", \"cpu_time\": " << ns_per_step << ", \"time_unit\": \"ns\"";
+    if (aggregate && std::string(aggregate) == "stddev") {
+      o << "}";
+      return;
+    }
     char h[20];
     std::snprintf(h, sizeof h, "%016llx", (unsigned long long)r.state_hash);
-    o << h << "\"}";
+    o << ", \"items_per_second\": " << double(r.elements) * double(r.steps) / seconds << ", "
+      << "\"sim_s_per_s\": " << double(r.steps) * r.dt / seconds << ", "
+      << "\"bytes_per_element\": " << r.bytes_per_element << ", \"elements\": " << r.elements << ", "
+      << "\"label\": \"" << json_escape(r.terms + ", " + r.integrator + ", path " + r.step_path) << ", state hash " << h
+      << "\"}";
   };
-  for (std::size_t i = 0; i < r.run_s.size(); ++i) {
-    entry("iteration", int(i), nullptr, r.run_s[i]);
-    o << ",\n";
-  }
   double mean = 0;
   for (double s : r.run_s) mean += s / double(r.run_s.size());
   double var = 0;
   for (double s : r.run_s) var += (s - mean) * (s - mean);
   const double sd = r.run_s.size() > 1 ? std::sqrt(var / double(r.run_s.size() - 1)) : 0;
-  entry("aggregate", 0, "mean", mean);
+  for (std::size_t i = 0; i < r.run_s.size(); ++i) {
+    entry(int(i), nullptr, r.run_s[i]);
+    o << ",\n";
+  }
+  entry(0, "mean", mean);
   o << ",\n";
-  entry("aggregate", 0, "median", r.median_s);
+  entry(0, "median", r.median_s);
   o << ",\n";
-  // (stddev as Google Benchmark writes it: the time fields hold the deviation)
-  const double ns_sd = 1e9 * sd / double(r.steps);
-  o << "    {\"name\": \"" << json_escape(name) << "_stddev\", \"family_index\": 0, \"per_family_instance_index\": 0, "
-    << "\"run_name\": \"" << json_escape(name) << "\", \"run_type\": \"aggregate\", \"repetitions\": " << r.run_s.size()
-    << ", \"aggregate_name\": \"stddev\", \"aggregate_unit\": \"time\", \"threads\": " << r.threads
-    << ", \"iterations\": " << r.steps << ", \"real_time\": " << ns_sd << ", \"cpu_time\": " << ns_sd
-    << ", \"time_unit\": \"ns\"}\n  ]\n}\n";
+  entry(0, "stddev", sd);
+  o << "\n  ]\n}\n";
   return o.str();
 }
 

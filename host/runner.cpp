@@ -401,4 +401,19 @@ RunResult run_scene(const Scene& s, const RunOptions& opt, const h5::Checkpoint*
   return SceneRun<double>(s, opt, restart).run();
 }
 
+std::string stage_report(const StageTimes& st) {
+  const double total = st.total();
+  if (!(total > 0)) return {};
+  std::string out;
+  char line[160];
+  for (int i = 0; i < kStageCount; ++i) {
+    if (st.calls[std::size_t(i)] == 0) continue;
+    std::snprintf(line, sizeof line, "  %-15s %10.4f s  %5.1f %%  %lld calls\n", stage_name(Stage(i)),
+                  st.seconds[std::size_t(i)], 100 * st.seconds[std::size_t(i)] / total, (long long)st.calls[std::size_t(i)]);
+    out += line;
+  }
+  std::snprintf(line, sizeof line, "  %-15s %10.4f s\n", "total", total);
+  return out + line;
+}
+
 }  // namespace manyrods::scene

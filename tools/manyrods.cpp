@@ -52,15 +52,8 @@ int default_threads() { return std::max(1, omp_get_max_threads()); }
 
 // With --profile: each stage's share of the step's thread-seconds.
 void profile_lines(const StageTimes& st) {
-  const double total = st.total();
-  if (!(total > 0)) return;
-  std::fprintf(stderr, "manyrods: profile (thread-seconds per stage, all steps):\n");
-  for (int i = 0; i < kStageCount; ++i) {
-    if (st.calls[std::size_t(i)] == 0) continue;
-    std::fprintf(stderr, "  %-15s %10.4f s  %5.1f %%  %lld calls\n", stage_name(Stage(i)), st.seconds[std::size_t(i)],
-                 100 * st.seconds[std::size_t(i)] / total, (long long)st.calls[std::size_t(i)]);
-  }
-  std::fprintf(stderr, "  %-15s %10.4f s\n", "total", total);
+  const std::string table = stage_report(st);
+  if (!table.empty()) std::fprintf(stderr, "manyrods: profile (thread-seconds per stage, all steps):\n%s", table.c_str());
 }
 
 void summary_line(const RunResult& r, const std::string& out) {

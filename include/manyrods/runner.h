@@ -120,4 +120,9 @@ struct ValidityError : std::runtime_error {
 // existing one is kept).
 RunResult run_scene(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart = nullptr);
 
+// The per-stage profile as text, a line per stage that ran (name,
+// thread-seconds, share, calls) and the total; empty when nothing was timed
+// (`manyrods run --profile`, `manyrods bench`).
+std::string stage_report(const StageTimes& st);
+
 }  // namespace manyrods::scene
