@@ -30,6 +30,8 @@
 //
 //   manyrods-accuracy [--out DIR] [--quick]
 //   manyrods-accuracy --float-vs-double   (float against double on the benchmark scenes)
+//   manyrods-accuracy --peer DIR          (references and manyrods' rows for a side-by-side
+//                                          with another code at equal error, see peer())
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -37,6 +39,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -130,18 +133,19 @@ void advance_config(RodBatch<T>& b, T dt, std::int64_t steps) {
 // Steps `b` (already at its start state) through kFrames frames of kT / kFrames;
 // dt is rounded down so that each frame is a whole number of steps.
 template <Integrator kI, Kv kK, class T>
-Trajectory run(RodBatch<T>& b, double dt_max, int tip_node, double* wall, std::int64_t* steps_out, double* dt_used) {
-  const double frame = kT / kFrames;
+Trajectory run(RodBatch<T>& b, double dt_max, int tip_node, double* wall, std::int64_t* steps_out, double* dt_used,
+               double duration = kT, int frames = kFrames) {
+  const double frame = duration / frames;
   const std::int64_t per = std::int64_t(std::ceil(frame / dt_max - 1e-9));
   const T dt = T(frame / double(per));
   Trajectory tips;
   const auto t0 = std::chrono::steady_clock::now();
-  for (int f = 0; f < kFrames; ++f) {
+  for (int f = 0; f < frames; ++f) {
     advance_config<kI, kK>(b, dt, per);
     tips.push_back(b.position(0, tip_node));
   }
   *wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  *steps_out = per * kFrames;
+  *steps_out = per * frames;
   *dt_used = double(dt);
   return tips;
 }
@@ -256,6 +260,133 @@ void float_vs_double(int steps) {
   }
 }
 
+// ---- side by side with another code at equal error (--peer DIR) -------------
+//
+// Two cases another Cosserat rod code (PyElastica) can set up identically,
+// with manyrods' converged tip trajectories written to DIR so that the other
+// code's driver measures its own error against the same reference:
+//
+//   struck      the seed material with a circular section of area 1e-4 m²
+//               (radius 5.642 mm; PyElastica's sections are circles),
+//               clamped at z = 0, straight along z, undamped, no gravity,
+//               started with the first clamped–free bending mode's velocity
+//               v(s) = v0 φ1(s)/φ1(L) along x (v0 = 0.1 m/s: tip amplitude
+//               0.029 m ≈ 0.1 L), 2 s (1.1 periods), 40 frames. Reference:
+//               Position Verlet, double, n = 160 and 320 at stable_dt/4,
+//               Richardson in dx.
+//   hair        the hair strand of case (ii), 1 s, 20 frames, its reference
+//               (plain explicit at half the stable step, n = 32).
+//
+// Writes DIR/reference_struck.csv, DIR/reference_hair.csv (frame, t, x, y, z)
+// and DIR/manyrods.csv (code, case, precision, dt, elements, wall_s,
+// sim_s_per_wall_s, error): manyrods' own grid, one rod on one thread.
+
+constexpr double kStruckT = 2.0, kStruckV0 = 0.1;
+constexpr int kStruckFrames = 40;
+
+// φ1(s) of the clamped–free Euler–Bernoulli beam, βL = 1.8751040687.
+double mode1(double s) {
+  const double bl = 1.8751040687, x = bl * s / kCantL;
+  const double sigma = (std::cosh(bl) + std::cos(bl)) / (std::sinh(bl) + std::sin(bl));
+  return std::cosh(x) - std::cos(x) - sigma * (std::sinh(x) - std::sin(x));
+}
+
+RodSpec struck_cantilever(int n) {
+  RodSpec s = RodSpec::straight({0, 0, 0}, {0, 0, 1}, {1, 0, 0}, kCantL, n);
+  s.name = "struck cantilever";
+  s.section = Section::circle(std::sqrt(1e-4 / std::acos(-1.0)));
+  s.material = {1000, 1e6, 0.3};
+  s.clamped_root = true;
+  s.velocities.resize(std::size_t(n) + 1);
+  for (int j = 0; j <= n; ++j) s.velocities[j] = {kStruckV0 * mode1(kCantL * j / n) / mode1(kCantL), 0, 0};
+  return s;
+}
+
+void write_trajectory(const Trajectory& tips, double duration, const std::string& path) {
+  std::ofstream f(path);
+  if (!f) throw std::runtime_error("cannot write " + path);
+  f << "frame,t,x,y,z\n";
+  f.precision(17);
+  for (std::size_t i = 0; i < tips.size(); ++i)
+    f << i << ',' << duration * double(i + 1) / double(tips.size()) << ',' << tips[i][0] << ',' << tips[i][1] << ','
+      << tips[i][2] << '\n';
+}
+
+int peer(const std::string& dir) {
+  std::ofstream rows(dir + "/manyrods.csv");
+  if (!rows) {
+    std::fprintf(stderr, "manyrods-accuracy: cannot write %s/manyrods.csv\n", dir.c_str());
+    return 1;
+  }
+  rows << "code,case,precision,dt,elements,wall_s,sim_s_per_wall_s,error\n";
+  auto row = [&](const char* c, const char* prec, double dt, int n, double wall, double duration, double err) {
+    std::printf("manyrods %-7s %-6s dt %.3e n %4d wall %8.3f s  %.3e sim s/wall s  error %.3e\n", c, prec, dt, n,
+                wall, duration / wall, err);
+    std::fflush(stdout);
+    rows << "manyrods," << c << ',' << prec << ',' << dt << ',' << n << ',' << wall << ',' << duration / wall << ','
+         << err << '\n';
+  };
+  // (a) the struck cantilever
+  auto struck = [&](auto precision, int n, double dt_max, double* wall, double* dt_used) {
+    using T = decltype(precision);
+    RodBatch<T> b = build_batch<T>({struck_cantilever(n)}, {0, 0, 0});
+    std::int64_t steps;
+    return run<Integrator::position_verlet, Kv::off>(b, dt_max, n, wall, &steps, dt_used, kStruckT, kStruckFrames);
+  };
+  auto struck_dt = [](int n) { return stable_dt(build_batch<double>({struck_cantilever(n)}, {0, 0, 0})).elastic; };
+  double wall, dt_used;
+  const Trajectory r1 = struck(0.0, 160, struck_dt(160) / 4, &wall, &dt_used);
+  const Trajectory r2 = struck(0.0, 320, struck_dt(320) / 4, &wall, &dt_used);
+  Trajectory ref(r1.size());
+  for (std::size_t f = 0; f < ref.size(); ++f)
+    for (int d = 0; d < 3; ++d) ref[f][d] = (4 * r2[f][d] - r1[f][d]) / 3;
+  std::printf("struck reference: n = 160 vs 320 differ by %.3e L; Richardson correction %.3e L\n",
+              max_error(r1, r2, kCantL), max_error(r2, ref, kCantL));
+  write_trajectory(ref, kStruckT, dir + "/reference_struck.csv");
+  for (int n : {10, 20, 40, 80, 160}) {
+    const double dt = 0.9 * struck_dt(n);
+    Trajectory t = struck(0.0, n, dt, &wall, &dt_used);
+    row("struck", "double", dt_used, n, wall, kStruckT, max_error(t, ref, kCantL));
+    t = struck(0.0f, n, dt, &wall, &dt_used);
+    row("struck", "float", dt_used, n, wall, kStruckT, max_error(t, ref, kCantL));
+  }
+  // (b) the hair strand
+  RodBatch<double> hb = build_batch<double>({hair(false)}, {0, 0, -9.81});
+  const double dt_exp = stable_dt(hb).elastic;
+  std::int64_t steps;
+  const Trajectory href = run<Integrator::position_verlet, Kv::off>(hb, 0.5 * dt_exp, 32, &wall, &steps, &dt_used);
+  std::printf("hair reference: dt %.3e s, %lld steps, %.1f s\n", dt_used, (long long)steps, wall);
+  write_trajectory(href, kT, dir + "/reference_hair.csv");
+  {  // the plain explicit scheme near its limit, as PyElastica steps the strand
+    RodBatch<double> b = build_batch<double>({hair(false)}, {0, 0, -9.81});
+    const Trajectory t = run<Integrator::position_verlet, Kv::off>(b, 0.9 * dt_exp, 32, &wall, &steps, &dt_used);
+    row("hair-explicit", "double", dt_used, 32, wall, kT, max_error(t, href, kHairL));
+  }
+  for (double dt : {1e-3, 5e-4, 2.5e-4, 1e-4, 5e-5}) {
+    for (bool dbl : {true, false}) {
+      Trajectory t;
+      if (dbl) {
+        RodBatch<double> b = build_batch<double>({hair(true)}, {0, 0, -9.81});
+        try {
+          t = run<Integrator::position_verlet, Kv::off>(b, dt, 32, &wall, &steps, &dt_used);
+        } catch (const NonFiniteError&) {
+          t.assign(kFrames, {NAN, NAN, NAN});
+        }
+      } else {
+        RodBatch<float> b = build_batch<float>({hair(true)}, {0, 0, -9.81});
+        try {
+          t = run<Integrator::position_verlet, Kv::off>(b, dt, 32, &wall, &steps, &dt_used);
+        } catch (const NonFiniteError&) {
+          t.assign(kFrames, {NAN, NAN, NAN});
+        }
+      }
+      row("hair", dbl ? "double" : "float", dt_used, 32, wall, kT, max_error(t, href, kHairL));
+    }
+  }
+  std::printf("wrote %s/reference_struck.csv, reference_hair.csv, manyrods.csv\n", dir.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -269,8 +400,10 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--float-vs-double")) {
       float_vs_double(20000);
       return 0;
+    } else if (!std::strcmp(argv[i], "--peer") && i + 1 < argc) {
+      return peer(argv[i + 1]);
     } else {
-      std::fprintf(stderr, "usage: manyrods-accuracy [--out DIR] [--quick] | --float-vs-double\n");
+      std::fprintf(stderr, "usage: manyrods-accuracy [--out DIR] [--quick] | --float-vs-double | --peer DIR\n");
       return 2;
     }
   }

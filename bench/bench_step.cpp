@@ -35,11 +35,11 @@ constexpr double kValuesPerSlot = 180, kValuesImplicit = 130;
 constexpr Terms kNoKV{true, true, true, true, false, true, true};
 
 // kBlock > 1: step_n with kBlock steps per call (temporal blocking), the way
-// advance() steps; items still count element-steps.
+// advance() steps; items still count element-steps. flush: Exec::flush_subnormals.
 template <class T, Terms kT, Viscous kV, int kBlock = 1>
-void run_step(benchmark::State& state, const std::string& scene, bool kv) {
+void run_step(benchmark::State& state, const std::string& scene, bool kv, bool flush = true) {
   const int threads = int(state.range(0));
-  const Exec ex{threads};
+  const Exec ex{threads, nullptr, flush};
   Scene sc = make_scene(scene, kv);
   RodBatch<T> b = build_batch<T>(sc.rods, sc.gravity);
   if (sc.has_fluid) set_fluid(b, sc.fluid);
@@ -87,7 +87,15 @@ void run_step(benchmark::State& state, const std::string& scene, bool kv) {
   void BM_step64_##scene##_nokv_double(benchmark::State& s) {                                          \
     run_step<double, kNoKV, Viscous::implicit, 64>(s, #scene, false);                                  \
   }                                                                                                    \
+  void BM_step64_##scene##_float(benchmark::State& s) {                                                \
+    run_step<float, kAllTerms, Viscous::implicit, 64>(s, #scene, true);                                \
+  }                                                                                                    \
+  void BM_step64_##scene##_double(benchmark::State& s) {                                               \
+    run_step<double, kAllTerms, Viscous::implicit, 64>(s, #scene, true);                               \
+  }                                                                                                    \
   BENCHMARK(BM_step_##scene##_kvexplicit_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step64_##scene##_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
+  BENCHMARK(BM_step64_##scene##_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
   BENCHMARK(BM_step64_##scene##_nokv_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5); \
   BENCHMARK(BM_step64_##scene##_nokv_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 
@@ -115,6 +123,21 @@ void BM_step64_hairturn_float(benchmark::State& s) {
 }
 BENCHMARK(BM_step_hairturn_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 BENCHMARK(BM_step64_hairturn_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+
+// Float with IEEE subnormals (Exec::flush_subnormals = false): against the
+// same benchmarks without _ieee, what the flush gains (host/fp_env.h).
+void BM_ieee_step64_hair_nokv_float(benchmark::State& s) {
+  run_step<float, kNoKV, Viscous::implicit, 64>(s, "hair", false, false);
+}
+void BM_ieee_step64_hair_float(benchmark::State& s) {
+  run_step<float, kAllTerms, Viscous::implicit, 64>(s, "hair", true, false);
+}
+void BM_ieee_step64_hairstiff_float(benchmark::State& s) {
+  run_step<float, kAllTerms, Viscous::implicit, 64>(s, "hairstiff", true, false);
+}
+BENCHMARK(BM_ieee_step64_hair_nokv_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_ieee_step64_hair_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_ieee_step64_hairstiff_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 
 }  // namespace
 

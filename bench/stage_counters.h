@@ -16,7 +16,7 @@ namespace manyrods::bench {
 template <Terms kT, Viscous kV = Viscous::implicit, class T>
 void stage_counters(benchmark::State& state, RodBatch<T>& b, T dt, const Exec& ex) {
   Profile profile;
-  step_n<kT, kV>(b, dt, 64, Exec{ex.threads, &profile});
+  step_n<kT, kV>(b, dt, 64, Exec{ex.threads, &profile, ex.flush_subnormals});
   const StageTimes st = profile.total();
   for (int i = 0; i < kStageCount; ++i)
     state.counters[std::string("stage_") + stage_name(Stage(i))] = st.seconds[std::size_t(i)] / st.total();

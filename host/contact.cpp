@@ -298,10 +298,15 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
   // gap ≥ s_a + s_b − moved_a − moved_b ≥ need_a + need_b = δ_ab.
   if (c.built) {
     int stale = 0;
-#pragma omp parallel for num_threads(ex.threads) reduction(max : stale) if (ex.threads > 1)
-    for (int k = 0; k < n; ++k)
-      if (c.elem_rod[k] >= 0 && moved_since_build(c, s, k) + contact_need(c, s, k, reach) > double(c.elem_skin[k]))
-        stale = 1;
+    const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/fp_env.h)
+#pragma omp parallel num_threads(ex.threads) reduction(max : stale) if (ex.threads > 1)
+    {
+      const RegionFpScope fp(mode);
+#pragma omp for
+      for (int k = 0; k < n; ++k)
+        if (c.elem_rod[k] >= 0 && moved_since_build(c, s, k) + contact_need(c, s, k, reach) > double(c.elem_skin[k]))
+          stale = 1;
+    }
     if (!stale) return;
   }
   // Each element's reach s_k: its contact range now plus a margin for the
@@ -418,15 +423,20 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
   const int cap = c.spec.capacity;
   std::vector<int> count(std::size_t(n), 0);  // candidates found (may exceed cap)
   auto list = [&](int k) { return c.neighbours.data() + std::size_t(k) * std::size_t(cap); };
-#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, kGuard) if (ex.threads > 1)
-  for (int k = 0; k < n; ++k) {
-    int m = 0;
-    if (c.elem_rod[k] >= 0)
-      gather(k, [&](int kb) {
-        if (m < cap) list(k)[m] = kb;
-        ++m;
-      });
-    count[std::size_t(k)] = m;
+  const RegionFpMode mode = RegionFpMode::of_caller();
+#pragma omp parallel num_threads(ex.threads) if (ex.threads > 1)
+  {
+    const RegionFpScope fp(mode);
+#pragma omp for schedule(dynamic, kGuard)
+    for (int k = 0; k < n; ++k) {
+      int m = 0;
+      if (c.elem_rod[k] >= 0)
+        gather(k, [&](int kb) {
+          if (m < cap) list(k)[m] = kb;
+          ++m;
+        });
+      count[std::size_t(k)] = m;
+    }
   }
   // the wide elements' narrow partners, handed over in (partner, wide) order
   std::vector<std::pair<int, int>> handed;

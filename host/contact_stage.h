@@ -22,6 +22,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "host/fp_env.h"
 #include "kernels/contact.h"
 #include "kernels/views.h"
 #include "manyrods/batch.h"
@@ -74,8 +75,13 @@ namespace detail {
 template <class F>
 void for_slots(int begin, int end, const Exec& ex, F&& f) {
   if (ex.threads > 1 && end - begin > 2 * kGuard) {
-#pragma omp parallel for num_threads(ex.threads) schedule(static, kGuard)
-    for (int k = begin; k < end; ++k) f(k);
+    const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/fp_env.h)
+#pragma omp parallel num_threads(ex.threads)
+    {
+      const RegionFpScope fp(mode);
+#pragma omp for schedule(static, kGuard)
+      for (int k = begin; k < end; ++k) f(k);
+    }
   } else {
     for (int k = begin; k < end; ++k) f(k);
   }

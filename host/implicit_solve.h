@@ -125,8 +125,13 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
     }
   };
   if (ex.threads > 1 && g1 - g0 > 1) {
-#pragma omp parallel for num_threads(ex.threads) schedule(dynamic, 1)
-    for (int g = g0; g < g1; ++g) solve(g, omp_get_thread_num());
+    const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/fp_env.h)
+#pragma omp parallel num_threads(ex.threads)
+    {
+      const RegionFpScope fp(mode);
+#pragma omp for schedule(dynamic, 1)
+      for (int g = g0; g < g1; ++g) solve(g, omp_get_thread_num());
+    }
   } else {
     for (int g = g0; g < g1; ++g) solve(g, thread);
   }

@@ -16,6 +16,8 @@
 //   4a. (contact Terms) [broad phase,] contact impulses          contact_stage
 //   5. drift ½h                                                drift
 //   6. (float) frames renormalized every 16th step            renormalize_frames
+// A float step runs with subnormals flushed to zero on all its threads
+// (Exec::flush_subnormals, host/fp_env.h).
 // Second order for the elastic (conservative) part, first order for the
 // Kelvin–Voigt part in both treatments: Viscous::explicit_rate evaluates the
 // viscous resultants with the velocities at the start of the kick (stable for
@@ -32,6 +34,7 @@
 #include "host/contact_stage.h"
 #include "host/diagnostics.h"
 #include "host/fluid_stage.h"
+#include "host/fp_env.h"
 #include "host/implicit_solve.h"
 #include "host/isa_table.h"
 #include "host/root_motion.h"
@@ -155,6 +158,7 @@ void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
   if constexpr (kSlot >= 0)
     if (const isa::StepTable* t = isa::active_table()) return isa::fns<T>(*t).step_n[kSlot](b, dt, count, ex);
 #endif
+  const FpScope fp(step_fp_mode<T>(ex));  // float: subnormals flushed (host/fp_env.h)
   detail::check_contact<kT>(b);
   if constexpr (kT.rod_contact) {
     step_rod_contact<kT, kV>(b, dt, count, ex);
@@ -225,6 +229,7 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex) {
   if constexpr (kSlot >= 0)
     if (const isa::StepTable* t = isa::active_table()) return isa::fns<T>(*t).step_pefrl[kSlot](b, dt, ex);
 #endif
+  const FpScope fp(step_fp_mode<T>(ex));
   constexpr bool kImplicit = kT.kelvin_voigt && kV == Viscous::implicit;
   constexpr Terms kExplicit = detail::explicit_terms<kT, kV>();
   if constexpr (kT.colliders || kT.rod_contact)

@@ -8,6 +8,7 @@
 // determinism").
 #pragma once
 
+#include "host/fp_env.h"
 #include "manyrods/array.h"
 #include "manyrods/step.h"  // Exec
 
@@ -38,8 +39,13 @@ inline void launch(int begin, int end, const Exec& ex, F&& kernel) {
     for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
     return;
   }
-#pragma omp parallel for num_threads(ex.threads) schedule(static)
-  for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
+  const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/fp_env.h)
+#pragma omp parallel num_threads(ex.threads)
+  {
+    const RegionFpScope fp(mode);
+#pragma omp for schedule(static)
+    for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
+  }
 }
 
 template <class F>
@@ -78,8 +84,13 @@ inline void launch_with_fallback(int begin, int end, const Exec& ex, int* flags,
     for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
     return;
   }
-#pragma omp parallel for num_threads(ex.threads) schedule(static)
-  for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
+  const RegionFpMode mode = RegionFpMode::of_caller();
+#pragma omp parallel num_threads(ex.threads)
+  {
+    const RegionFpScope fp(mode);
+#pragma omp for schedule(static)
+    for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
+  }
 }
 
 }  // namespace manyrods

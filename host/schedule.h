@@ -13,6 +13,7 @@
 
 #include <omp.h>
 
+#include "host/fp_env.h"
 #include "manyrods/batch.h"
 #include "manyrods/step.h"
 
@@ -35,10 +36,15 @@ void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
   const int n = int(b.segments.size());
   const Exec serial{1, ex.profile};
   if (ex.profile) ex.profile->reserve(ex.threads);
+  const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's, for every thread (host/fp_env.h)
   for (int parity = 0; parity < 2; ++parity) {
-#pragma omp parallel for num_threads(ex.threads) schedule(static, 1) if (ex.threads > 1 && n > 2)
-    for (int i = parity; i < n; i += 2)
-      if (b.segments[i].fused) run(b.segments[i], serial, omp_get_thread_num());
+#pragma omp parallel num_threads(ex.threads) if (ex.threads > 1 && n > 2)
+    {
+      const RegionFpScope fp(mode);
+#pragma omp for schedule(static, 1)
+      for (int i = parity; i < n; i += 2)
+        if (b.segments[i].fused) run(b.segments[i], serial, omp_get_thread_num());
+    }
   }
   for (const Segment& r : b.segments)
     if (!r.fused) run(r, ex, 0);

@@ -17,7 +17,9 @@
 //      for the cantilevers): 0.03 float ulps·L per step, a margin of 300 to
 //      the bound; a changed formula moves the tips by far more (they travel
 //      millimetres in these steps).
-//   2. The state hash (state_hash) equals the committed one, bit for bit.
+//   2. The state hash (state_hash) equals the committed one, bit for bit,
+//      with IEEE subnormals (Exec::flush_subnormals = false; (1) is checked
+//      with the flush as well, the default for float).
 //      It is compared only where the build matches the one that recorded it:
 //      GCC 12, x86-64 with AVX2 and FMA and without AVX-512 (-march=native
 //      on the AMD EPYC machine of bench/RESULTS.md). Another compiler
@@ -35,6 +37,7 @@
 #include <cstdlib>
 #include <limits>
 #include <memory>
+#include <type_traits>
 #include <vector>
 
 #include "cases.h"
@@ -65,15 +68,17 @@ constexpr bool kRecordingBuild = true;
 constexpr bool kRecordingBuild = false;
 #endif
 
+// flush: Exec::flush_subnormals (the default; float only). The committed
+// hashes are those of IEEE gradual underflow (flush = false).
 template <class T>
-Golden run(bool verlet) {
+Golden run(bool verlet, bool flush) {
   // gravity bends the cantilevers (along e3) and the hair (along e1)
   RodBatch<T> b = build_batch<T>(cases::golden_rods(verlet), {-9.81, 0, -4});
   const T dt = T(0.5 * stable_dt(b).elastic);
   if (verlet)
-    for (int block = 0; block < 4; ++block) step_n(b, dt, 50, Exec{2});
+    for (int block = 0; block < 4; ++block) step_n(b, dt, 50, Exec{2, nullptr, flush});
   else
-    for (int i = 0; i < 100; ++i) step_pefrl(b, dt, Exec{2});
+    for (int i = 0; i < 100; ++i) step_pefrl(b, dt, Exec{2, nullptr, flush});
   Golden g{"", state_hash(b), {}};
   for (int r = 0; r < b.rod_count(); ++r) g.tips.push_back(b.position(r, b.elements(r)));
   return g;
@@ -87,7 +92,7 @@ void print(const char* name, const Golden& g) {
 
 template <class T>
 void check(const char* name, bool verlet, int steps) {
-  const Golden got = run<T>(verlet);
+  const Golden got = run<T>(verlet, false);
   if (std::getenv("MANYRODS_GOLDEN_PRINT")) print(name, got);
   const Golden* want = nullptr;
   for (const Golden& g : kGolden)
@@ -102,6 +107,15 @@ void check(const char* name, bool verlet, int steps) {
               kRecordingBuild ? "" : " — not compared: not the recording compiler/ISA");
   if (kRecordingBuild) {
     EXPECT_EQ(got.hash, want->hash) << name << ": the answer changed bit for bit";
+  }
+  // 3. With subnormals flushed (the default) the tips stay within the same
+  //    bound: a flushed value is below 1.2e-38, far below one ulp of a tip.
+  if constexpr (std::is_same_v<T, float>) {  // (double steps do not flush)
+    const Golden flushed = run<T>(verlet, true);
+    for (std::size_t r = 0; r < flushed.tips.size(); ++r)
+      EXPECT_LE(cases::distance(flushed.tips[r], want->tips[r]), tol) << name << ": flushed, tip of rod " << r;
+    std::printf("  %s, subnormals flushed: state hash %016llx\n", name,
+                static_cast<unsigned long long>(flushed.hash));
   }
 }
 

@@ -18,6 +18,7 @@
 #include <limits>
 #include <numbers>
 
+#include "cases.h"
 #include "check.h"
 #include "ref_batch.h"
 
@@ -393,6 +394,55 @@ void check_threads() {
 
 TEST(Properties, ThreadCountDoesNotChangeResultImplicitViscous) { check_threads<Viscous::implicit>(); }
 TEST(Properties, ThreadCountDoesNotChangeResultExplicitViscous) { check_threads<Viscous::explicit_rate>(); }
+
+// Float steps flush subnormals to zero on every thread of the step
+// (Exec::flush_subnormals, the default); afterwards the calling thread and
+// the pool's threads compute subnormals again (the pool's threads start in
+// the first step here, so they are born in its mode). 400 straight cantilevers along z in the plane y = 0 (several
+// segments, so both threads step rods), every node moving at 1e-36 m/s
+// along y: each drift adds ½h·v ≈ 5e-42 m to y = 0, a subnormal. Flushed,
+// every y stays exactly 0 on every rod, whichever thread stepped it; with
+// IEEE underflow the y's become subnormal, not 0.
+TEST(Properties, FloatStepFlushesSubnormalsOnEveryThread) {
+  std::vector<RodSpec> specs(400, cases::seed_cantilever(20));
+  RodBatch<float> start = build_batch<float>(specs, {0, 0, 0});
+  ASSERT_GT(start.segments.size(), 2u);  // the segments are shared out between threads
+  for (int r = 0; r < start.rod_count(); ++r)
+    for (int j = 1; j <= start.elements(r); ++j) start.set_velocity(r, j, {0, 1e-36, 0});
+  const float dt = 1e-5f;
+  auto run = [&](int threads, bool flush) {
+    RodBatch<float> b = start;
+    step_n(b, dt, 20, Exec{threads, nullptr, flush});
+    return b;
+  };
+  auto y_range = [](const RodBatch<float>& b) {
+    double lo = 1, hi = 0;  // smallest and largest |y| over the nodes off the root
+    for (int r = 0; r < b.rod_count(); ++r)
+      for (int j = 1; j <= b.elements(r); ++j) {
+        const double y = std::abs(b.position(r, j)[1]);
+        lo = std::min(lo, y);
+        hi = std::max(hi, y);
+      }
+    return std::pair{lo, hi};
+  };
+  for (int threads : {1, 2}) {
+    const RodBatch<float> flushed = run(threads, true), ieee = run(threads, false);
+    const auto [flo, fhi] = y_range(flushed);
+    const auto [ilo, ihi] = y_range(ieee);
+    std::printf("  %d thread(s): |y| in [%g, %g] flushed, [%g, %g] IEEE\n", threads, flo, fhi, ilo, ihi);
+    EXPECT_EQ(fhi, 0.0) << threads << " thread(s): a subnormal survived the flush";
+    EXPECT_GT(ilo, 0.0) << threads << " thread(s): IEEE underflow should keep the subnormal y's";
+    EXPECT_LT(ihi, double(std::numeric_limits<float>::min()));
+  }
+  EXPECT_EQ(state_hash(run(1, true)), state_hash(run(2, true)));
+  // Afterwards this thread and the pool's threads compute subnormals again.
+  volatile float tiny = 1e-30f;
+  int subnormal_lost = 0;
+#pragma omp parallel num_threads(2) reduction(+ : subnormal_lost)
+  subnormal_lost += tiny * 1e-10f == 0.0f ? 1 : 0;
+  EXPECT_EQ(subnormal_lost, 0);
+  EXPECT_GT(tiny * 1e-10f, 0.0f);
+}
 
 // ---- (e) free fall (2d) -------------------------------------------------------
 

@@ -35,6 +35,12 @@ namespace manyrods {
 struct Exec {
   int threads = 1;             // OpenMP threads for this call
   Profile* profile = nullptr;  // per-stage times (include/manyrods/profile.h), or none
+  // Float steps run with subnormals flushed to zero (x86-64 FTZ/DAZ, for the
+  // call only, on every thread of the step): a rod at rest makes subnormal
+  // floats, which Intel cores compute in microcode, several times slower.
+  // false keeps IEEE gradual underflow (last bits may differ; the physics
+  // does not: a subnormal is below 1.2e-38). Double steps ignore it.
+  bool flush_subnormals = true;
 };
 
 // How the Kelvin–Voigt force is integrated.
