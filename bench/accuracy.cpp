@@ -207,6 +207,21 @@ void hair_config(Grid& g, bool stiff, double dt, const Trajectory& ref) {
          max_error(tips, ref, kHairL)});
 }
 
+// The hair's reference: the plain explicit scheme at half its stable step
+// (*dt_explicit: that stable step).
+Trajectory hair_reference(double* dt_explicit) {
+  std::printf("hair reference (plain explicit at half its stable step, n = 32, ~2 min) ...\n");
+  std::fflush(stdout);
+  RodBatch<double> hb = build_batch<double>({hair(false)}, {0, 0, -9.81});
+  *dt_explicit = stable_dt(hb).elastic;
+  double wall, dt_used;
+  std::int64_t steps;
+  const Trajectory href =
+      run<Integrator::position_verlet, Kv::off>(hb, 0.5 * *dt_explicit, 32, &wall, &steps, &dt_used);
+  std::printf("hair reference: dt %.3e s, %lld steps, %.1f s\n", dt_used, (long long)steps, wall);
+  return href;
+}
+
 void write_summary(const std::vector<Row>& rows, const std::string& path) {
   std::ofstream md(path);
   md << "| case | error ≤ | cheapest configuration (wall time) | its error |\n|---|---|---|---|\n";
@@ -351,33 +366,20 @@ int peer(const std::string& dir) {
     t = struck(0.0f, n, dt, &wall, &dt_used);
     row("struck", "float", dt_used, n, wall, kStruckT, max_error(t, ref, kCantL));
   }
-  // (b) the hair strand
-  RodBatch<double> hb = build_batch<double>({hair(false)}, {0, 0, -9.81});
-  const double dt_exp = stable_dt(hb).elastic;
-  std::int64_t steps;
-  const Trajectory href = run<Integrator::position_verlet, Kv::off>(hb, 0.5 * dt_exp, 32, &wall, &steps, &dt_used);
-  std::printf("hair reference: dt %.3e s, %lld steps, %.1f s\n", dt_used, (long long)steps, wall);
+  // (b) the hair strand: case (ii)'s configurations, the plain explicit one
+  // near its limit as PyElastica steps the strand
+  double dt_exp;
+  const Trajectory href = hair_reference(&dt_exp);
   write_trajectory(href, kT, dir + "/reference_hair.csv");
-  {  // the plain explicit scheme near its limit, as PyElastica steps the strand
-    RodBatch<double> b = build_batch<double>({hair(false)}, {0, 0, -9.81});
-    const Trajectory t = run<Integrator::position_verlet, Kv::off>(b, 0.9 * dt_exp, 32, &wall, &steps, &dt_used);
-    row("hair-explicit", "double", dt_used, 32, wall, kT, max_error(t, href, kHairL));
-  }
-  auto stiff_hair = [&](auto precision, double dt) {
-    using T = decltype(precision);
-    RodBatch<T> b = build_batch<T>({hair(true)}, {0, 0, -9.81});
-    Trajectory t;
-    try {
-      t = run<Integrator::position_verlet, Kv::off>(b, dt, 32, &wall, &steps, &dt_used);
-    } catch (const NonFiniteError&) {
-      t.assign(kFrames, {NAN, NAN, NAN});
-    }
-    row("hair", std::is_same_v<T, float> ? "float" : "double", dt_used, 32, wall, kT, max_error(t, href, kHairL));
-  };
+  Grid g;
+  hair_config<double>(g, false, 0.9 * dt_exp, href);
   for (double dt : {1e-3, 5e-4, 2.5e-4, 1e-4, 5e-5}) {
-    stiff_hair(0.0, dt);
-    stiff_hair(0.0f, dt);
+    hair_config<double>(g, true, dt, href);
+    hair_config<float>(g, true, dt, href);
   }
+  for (const Row& r : g.rows)
+    row(r.options == "stiff=implicit" ? "hair" : "hair-explicit", r.precision.c_str(), r.dt, r.elements, r.wall_s,
+        kT, r.error);
   std::printf("wrote %s/reference_struck.csv, reference_hair.csv, manyrods.csv\n", dir.c_str());
   return 0;
 }
@@ -444,15 +446,8 @@ int main(int argc, char** argv) {
 
   // ---- (ii) hair: resolved explicit reference, n = 32 -------------------------
   if (!quick) {
-    std::printf("hair reference (plain explicit at half its stable step, n = 32, ~2 min) ...\n");
-    std::fflush(stdout);
-    RodBatch<double> hb = build_batch<double>({hair(false)}, {0, 0, -9.81});
-    const double dt_exp = stable_dt(hb).elastic;
-    double wall, dt_used;
-    std::int64_t steps;
-    const Trajectory href =
-        run<Integrator::position_verlet, Kv::off>(hb, 0.5 * dt_exp, 32, &wall, &steps, &dt_used);
-    std::printf("hair reference: dt %.3e s, %lld steps, %.1f s\n", dt_used, (long long)steps, wall);
+    double dt_exp;
+    const Trajectory href = hair_reference(&dt_exp);
     for (double dt : {1e-3, 5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5}) {
       hair_config<double>(g, true, dt, href);
       hair_config<float>(g, true, dt, href);

@@ -14,8 +14,9 @@
 // mode to its threads (RegionFpScope, first in a `parallel` block around
 // the `for`); on return the calling thread has its mode back and the pool's
 // threads the caller's mode from before the step, so a host application's
-// threads are not changed. Double steps run in the caller's mode as it is. On CPUs other
-// than x86-64 the mode is not touched (FTZ there is another register).
+// threads are not changed. Double steps run in the caller's mode as it is.
+// On CPUs other than x86-64 the mode is not touched (FTZ there is another
+// register).
 #pragma once
 
 #include <omp.h>
