@@ -105,6 +105,17 @@ MANYRODS_SCENE(long)
 MANYRODS_SCENE(mixed)
 MANYRODS_SCENE(fibers)
 
+// One rod of 100,000 elements: the long rod's partitioned solve at 10× the
+// length (step64 only).
+void BM_step64_longer_float(benchmark::State& s) { run_step<float, kAllTerms, Viscous::implicit, 64>(s, "longer", true); }
+void BM_step64_longer_double(benchmark::State& s) { run_step<double, kAllTerms, Viscous::implicit, 64>(s, "longer", true); }
+void BM_step64_longer_nokv_float(benchmark::State& s) { run_step<float, kNoKV, Viscous::implicit, 64>(s, "longer", false); }
+void BM_step64_longer_nokv_double(benchmark::State& s) { run_step<double, kNoKV, Viscous::implicit, 64>(s, "longer", false); }
+BENCHMARK(BM_step64_longer_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_step64_longer_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_step64_longer_nokv_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_step64_longer_nokv_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
+
 // Hair as stiff rods at frame-rate steps (Kelvin–Voigt on, solved with the
 // stiff terms): compare sim_s_per_s with BM_step_hair_*.
 void BM_step_hairstiff_float(benchmark::State& s) { run_step<float, kAllTerms, Viscous::implicit>(s, "hairstiff", true); }

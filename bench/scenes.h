@@ -110,6 +110,8 @@ inline Scene make_scene(const std::string& name, bool kv, int rods_override = -1
     }
   } else if (name == "long") {
     sc.rods.push_back(seed_rod(0, 0, 10.0, 10000, kv));
+  } else if (name == "longer") {
+    sc.rods.push_back(seed_rod(0, 0, 100.0, 100000, kv));
   } else if (name == "mixed") {
     const int R = rods_override > 0 ? rods_override : 5000;
     for (int i = 0; i < R; ++i) {

@@ -375,6 +375,8 @@ void RodBatch<T>::reserve_implicit_scratch(int threads, int min_cells) {
   int cells = min_cells;
   for (const Segment& r : segments) cells = std::max(cells, r.end - r.begin);
   threads = std::max(threads, 1);
+  const std::size_t partition = std::max(solve_plan[0].partition_values, solve_plan[1].partition_values);
+  if (scratch.visc_partition.size() < partition) scratch.visc_partition.resize(partition, T(0));
   if (cells <= scratch.visc_cells && threads <= scratch.visc_threads) return;
   scratch.visc_cells = std::max(cells, scratch.visc_cells);
   scratch.visc_threads = std::max(threads, scratch.visc_threads);

@@ -4,7 +4,17 @@
 #include <algorithm>
 #include <utility>
 
+#include "kernels/viscous_implicit_partitioned.h"
+
 namespace manyrods {
+
+std::size_t partition_values(int cells, int lanes, int k) {
+  const std::size_t parts = std::size_t((cells + k - 1) / k);
+  const std::size_t groups = (parts + std::size_t(lanes) - 1) / std::size_t(lanes);
+  const std::size_t n = 78 * groups * std::size_t(k + 1) * std::size_t(lanes) +
+                        (std::size_t(kPartitionOut) + 78 + 6) * parts;
+  return (n + 7) / 8 * 8;
+}
 
 std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& rods, const Segment& seg,
                                  int lanes, int buffer_cells, bool kelvin_voigt) {
@@ -29,7 +39,14 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
     const bool fits = lanes * (cells + 1) <= buffer_cells;
     const bool fits_half = half_lanes > 1 && half_lanes * (cells + 1) <= buffer_cells;
     const int count = fits ? std::min(lanes, n - a) : fits_half ? std::min(half_lanes, n - a) : 1;
-    plan.groups.push_back({a, count, !fits});
+    SolveGroup g{a, count, !fits};
+    if (count == 1 && lanes > 1 && cells >= kPartitionMinCells) {
+      g.half = false;
+      g.parts = (cells + kPartitionCells - 1) / kPartitionCells;
+      g.offset = plan.partition_values;
+      plan.partition_values += partition_values(cells, lanes);
+    }
+    plan.groups.push_back(g);
     a += count;
   }
   for (int a = n; a < total; ++a) plan.groups.push_back({a, 1, false});

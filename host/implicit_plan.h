@@ -15,7 +15,8 @@
 // the scalar kernel. The groups depend only on the rods of the segment, and
 // a rod's result only on the kernel that solves it (not on the other rods of
 // its group: the kernel's idle and ghost cells add exact zeros), never on
-// the thread count.
+// the thread count. A rod left to the scalar kernel alone that has at least
+// kPartitionMinCells cells is cut into partitions instead (SolveGroup::parts).
 #pragma once
 
 #include <array>
@@ -31,6 +32,19 @@ namespace manyrods {
 // has the measurements behind the choice).
 template <class T>
 inline constexpr int kImplicitLanes = sizeof(T) == 4 ? 16 : 8;
+
+// Cells per partition of a long rod's partitioned solve
+// (kernels/viscous_implicit_partitioned.h), and the rods it applies to: those
+// the plan would give to the scalar kernel alone, from 4 partitions up.
+inline constexpr int kPartitionCells = 64;
+inline constexpr int kPartitionMinCells = 4 * kPartitionCells;
+
+// The partitioned solve's values for a rod of `cells` cells at `lanes` lanes,
+// k cells per partition:
+// 78 arrays of (k + 1)·lanes per lane group, the partitions' hand-over values
+// (kPartitionOut each), the separators' system (78 each) and solution (6
+// each), rounded up to whole 64-byte lines of doubles.
+std::size_t partition_values(int cells, int lanes, int k = kPartitionCells);
 
 // Whether rod `rod` is solved implicitly in a step with (kelvin_voigt) or
 // without the Kelvin–Voigt term.

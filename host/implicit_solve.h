@@ -8,13 +8,16 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <functional>
 #include <tuple>
+#include <vector>
 
 #include "host/implicit_plan.h"
 #include "host/schedule.h"
 #include "kernels/viscous_implicit.h"
 #include "kernels/viscous_implicit_lanes.h"
+#include "kernels/viscous_implicit_partitioned.h"
 #include "kernels/views.h"
 #include "manyrods/batch.h"
 
@@ -63,6 +66,84 @@ void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, 
   }
 }
 
+// The terms the solve reads: the elastic components and the Kelvin–Voigt
+// term. Step variants that differ only in others (gravity, loads, contact)
+// share one compiled solve (viscous_update forwards to it): the same
+// instructions for all of them, and a fraction of the compile time.
+constexpr Terms solve_kernel_terms(Terms t) {
+  Terms s{};
+  s.shear = t.shear;
+  s.stretch = t.stretch;
+  s.bend = t.bend;
+  s.twist = t.twist;
+  s.kelvin_voigt = t.kelvin_voigt;
+  s.gravity = s.loads = s.colliders = s.rod_contact = false;
+  return s;
+}
+
+template <Terms kT, int kLanes, class T>
+void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread);
+
+// One long rod's partitioned solve (kernels/viscous_implicit_partitioned.h):
+// its lane groups forwards (shared out over ex.threads), the separators'
+// system, the lane groups backwards; k cells per partition (the plan's
+// kPartitionCells; tests use others). `buf`: partition_values(cells, W, k)
+// values.
+template <Terms kT, int W, class T>
+MANYRODS_NOINLINE void solve_partitioned(RodBatch<T>& b, T h, const Exec& ex, const RodInfo& rod, T* buf,
+                                         int k = kPartitionCells) {
+  const int first = rod.offset + 1, cells = rod.elements + 1;
+  const int parts = (cells + k - 1) / k, groups = (parts + W - 1) / W;
+  const T stiff_h = rod.stiff_implicit ? h : T(0);
+  const ModelView<T> m = b.model_view();
+  const StateView<T> s = b.state_view();
+  const std::size_t lane_values = std::size_t(k + 1) * W, group_values = 78 * lane_values;
+  T* const out = buf + group_values * std::size_t(groups);
+  T* const work = out + std::size_t(kPartitionOut) * std::size_t(parts);
+  T* const xs = work + 78 * std::size_t(parts);
+  T* x[6];
+  for (int i = 0; i < 6; ++i) x[i] = xs + std::size_t(i) * std::size_t(parts);
+  auto view = [&](int g) {
+    PartitionScratchView<T> v{};
+    T* const at = buf + group_values * std::size_t(g);
+    for (int i = 0; i < 36; ++i) v.e.G[i] = at + std::size_t(i) * lane_values;
+    for (int i = 0; i < 6; ++i) v.e.g[i] = at + std::size_t(36 + i) * lane_values;
+    for (int i = 0; i < 36; ++i) v.H[i] = at + std::size_t(42 + i) * lane_values;
+    for (int i = 0; i < kPartitionOut; ++i) v.out[i] = out + std::size_t(i) * std::size_t(parts);
+    return v;
+  };
+  auto lanes_of = [&](int g, int (&part)[W]) {
+    for (int l = 0; l < W; ++l) part[l] = std::min(g * W + l, parts - 1);
+  };
+  // (one compiled copy of each pass for both branches below: see solve_segment)
+  auto forward = [&](int g) MANYRODS_NOINLINE {
+    int part[W];
+    lanes_of(g, part);
+    partitioned_forward<kT, W>(first, cells, k, part, h, stiff_h, m, s, view(g));
+  };
+  auto back = [&](int g) MANYRODS_NOINLINE {
+    int part[W];
+    lanes_of(g, part);
+    partitioned_back<W>(first, cells, k, part, s, view(g), x);
+  };
+  auto each_group = [&](auto&& pass) {
+    if (ex.threads > 1 && groups > 1) {
+      const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/fp_env.h)
+#pragma omp parallel num_threads(ex.threads)
+      {
+        const RegionFpScope fp(mode);
+#pragma omp for schedule(static)
+        for (int g = 0; g < groups; ++g) pass(g);
+      }
+    } else {
+      for (int g = 0; g < groups; ++g) pass(g);
+    }
+  };
+  each_group(forward);
+  partitioned_reduced(first, cells, k, m, s, view(0), x, work);
+  each_group(back);
+}
+
 }  // namespace detail
 
 // The implicit stage on the rods of segment r. kLanes = 0: the batch's plan
@@ -80,6 +161,13 @@ void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, 
 // reads: model, state  writes: state.node_v, elem_w (scratch: the thread's buffer)
 template <Terms kT, int kLanes = 0, class T>
 void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
+  detail::solve_segment<detail::solve_kernel_terms(kT), kLanes>(b, h, ex, r, thread);
+}
+
+namespace detail {
+
+template <Terms kT, int kLanes, class T>
+void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
   constexpr int W = kLanes > 0 ? kLanes : kImplicitLanes<T>;
   constexpr int kv = kT.kelvin_voigt ? 1 : 0;
   const SolvePlan* plan = &b.solve_plan[kv];
@@ -102,6 +190,7 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
   constexpr int W2 = W >= 4 ? W / 2 : 1;
   auto solve = [&](int group, int t) MANYRODS_NOINLINE {
     const SolveGroup& grp = plan->groups[group];
+    if (grp.parts > 0) return;  // below
     const int* rods = plan->rods.data() + grp.first;
     const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
     if (grp.count > 1) {
@@ -135,8 +224,25 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
   } else {
     for (int g = g0; g < g1; ++g) solve(g, thread);
   }
+  // long rods, each with all of ex.threads (a plan made here has its own buffer)
+  std::vector<T> own_partition;
+  if constexpr (W > 1)
+    for (int g = g0; g < g1; ++g) {
+      const SolveGroup& grp = plan->groups[g];
+      if (grp.parts == 0) continue;
+      T* buf = nullptr;
+      if (plan == &other) {
+        own_partition.assign(partition_values(b.rods[plan->rods[grp.first]].elements + 1, W), T(0));
+        buf = own_partition.data();
+      } else {
+        buf = b.scratch.visc_partition.data() + grp.offset;
+      }
+      solve_partitioned<kT, W>(b, h, ex, b.rods[plan->rods[grp.first]], buf);
+    }
   if (driven) detail::shift_reference_holds(b, r, kT.kelvin_voigt, T(1));
 }
+
+}  // namespace detail
 
 // The implicit stage on the whole batch (every segment).
 template <Terms kT, int kLanes = 0, class T>

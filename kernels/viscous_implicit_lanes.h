@@ -301,43 +301,39 @@ MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P,
   }
 }
 
-// Elimination and factorization of cell c of lane l (after assemble_lane):
-//   Â = A − U_{c−1}ᵀ G_{c−1},  ŷ = y − U_{c−1}ᵀ g_{c−1}  (c > 0),
-// fixed unknowns → identity rows, Â = L Lᵀ, g_c = Â⁻¹ŷ, G_c = Â⁻¹U_c (not for
-// the last cell), stored in the scratch.
-template <bool kFirst, bool kLast, int W, class T>
-MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cell<T, W>& cur,
-                                       const ImplicitScratchView<T>& sc) {
-  T A[21], y[6];
+// The pieces of the elimination of one cell (eliminate_lane below, and the
+// partitioned solve of kernels/viscous_implicit_partitioned.h).
+//
+// Â = A − U_{c−1}ᵀ G_{c−1}, ŷ = y − U_{c−1}ᵀ g_{c−1}, from the previous cell's
+// U and the scratch at `at` (cell c−1, lane l). U_{c−1}ᵀ G_{c−1} is symmetric:
+// lower triangle; U's column i is zero above row u_row0(i).
+template <int W, class T>
+MANYRODS_HD inline void schur_lane(int l, int at, const Cell<T, W>& prev, const ImplicitScratchView<T>& sc,
+                                   T (&A)[21], T (&y)[6]) {
+  T Gp[36], gp[6];
   MANYRODS_UNROLL_ALL
-  for (int i = 0; i < 21; ++i) A[i] = cur.A[i][l];
+  for (int i = 0; i < 36; ++i) Gp[i] = sc.G[i][at];
   MANYRODS_UNROLL_ALL
-  for (int i = 0; i < 6; ++i) y[i] = cur.y[i][l];
-  if constexpr (!kFirst) {
-    const int at = (c - 1) * W + l;
-    T Gp[36], gp[6];
+  for (int i = 0; i < 6; ++i) gp[i] = sc.g[i][at];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 6; ++i) {
     MANYRODS_UNROLL_ALL
-    for (int i = 0; i < 36; ++i) Gp[i] = sc.G[i][at];
-    MANYRODS_UNROLL_ALL
-    for (int i = 0; i < 6; ++i) gp[i] = sc.g[i][at];
-    // U_{c−1}ᵀ G_{c−1} is symmetric: lower triangle; U's column i is zero
-    // above row u_row0(i)
-    MANYRODS_UNROLL_ALL
-    for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j <= i; ++j) {
+      T acc = A[lt(i, j)];
       MANYRODS_UNROLL_ALL
-      for (int j = 0; j <= i; ++j) {
-        T acc = A[lt(i, j)];
-        MANYRODS_UNROLL_ALL
-        for (int r = u_row0(i); r < 6; ++r) acc -= prev.U[ui(r, i)][l] * Gp[6 * r + j];
-        A[lt(i, j)] = acc;
-      }
-      T acc = y[i];
-      MANYRODS_UNROLL_ALL
-      for (int r = u_row0(i); r < 6; ++r) acc -= prev.U[ui(r, i)][l] * gp[r];
-      y[i] = acc;
+      for (int r = u_row0(i); r < 6; ++r) acc -= prev.U[ui(r, i)][l] * Gp[6 * r + j];
+      A[lt(i, j)] = acc;
     }
+    T acc = y[i];
+    MANYRODS_UNROLL_ALL
+    for (int r = u_row0(i); r < 6; ++r) acc -= prev.U[ui(r, i)][l] * gp[r];
+    y[i] = acc;
   }
-  // fixed unknowns: u = 0, decoupled
+}
+
+// Fixed unknowns (zero inverse mass): u = 0, decoupled (identity rows).
+template <int W, class T>
+MANYRODS_HD inline void fix_lane(int l, const Cell<T, W>& cur, T (&A)[21], T (&y)[6]) {
   bool fixed[6];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) fixed[i] = cur.minv[i < 3 ? 0 : i - 2][l] == T(0);
@@ -348,7 +344,11 @@ MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cel
     A[lt(i, i)] = fixed[i] ? T(1) : A[lt(i, i)];
     y[i] = fixed[i] ? T(0) : y[i];
   }
-  // Cholesky, keeping 1/L_jj on the diagonal
+}
+
+// Cholesky Â = L Lᵀ in place (lower triangle), keeping 1/L_jj on the diagonal.
+template <class T>
+MANYRODS_HD inline void factor_lane(T (&A)[21]) {
   MANYRODS_UNROLL_ALL
   for (int j = 0; j < 6; ++j) {
     T d = A[lt(j, j)];
@@ -365,52 +365,67 @@ MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cel
       A[lt(i, j)] = v * id;
     }
   }
-  // g = L⁻ᵀ L⁻¹ ŷ
+}
+
+// x = L⁻ᵀ L⁻¹ x with the factor of factor_lane; x's entries above row r0
+// are zero (and stay zero through L⁻¹).
+template <int r0 = 0, class T>
+MANYRODS_HD inline void solve_lane(const T (&A)[21], T (&x)[6]) {
   MANYRODS_UNROLL_ALL
-  for (int i = 0; i < 6; ++i) {
-    T v = y[i];
+  for (int i = r0; i < 6; ++i) {
+    T v = x[i];
     MANYRODS_UNROLL_ALL
-    for (int r = 0; r < i; ++r) v -= A[lt(i, r)] * y[r];
-    y[i] = v * A[lt(i, i)];
+    for (int r = r0; r < i; ++r) v -= A[lt(i, r)] * x[r];
+    x[i] = v * A[lt(i, i)];
   }
   MANYRODS_UNROLL_ALL
   for (int i = 5; i >= 0; --i) {
-    T v = y[i];
+    T v = x[i];
     MANYRODS_UNROLL_ALL
-    for (int r = i + 1; r < 6; ++r) v -= A[lt(r, i)] * y[r];
-    y[i] = v * A[lt(i, i)];
+    for (int r = i + 1; r < 6; ++r) v -= A[lt(r, i)] * x[r];
+    x[i] = v * A[lt(i, i)];
   }
+}
+
+// G_c = Â⁻¹ U_c column by column into the scratch at `at`; column j of U
+// (and of L⁻¹U) is zero above row u_row0(j).
+template <int W, class T>
+MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell<T, W>& cur,
+                                     const ImplicitScratchView<T>& sc) {
+  MANYRODS_UNROLL_ALL
+  for (int j = 0; j < 6; ++j) {
+    T x[6];
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 6; ++i) x[i] = i < u_row0(j) ? T(0) : cur.U[ui(i, j)][l];
+    if (j < 3)
+      solve_lane<0>(A, x);
+    else
+      solve_lane<3>(A, x);
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 6; ++i) sc.G[6 * i + j][at] = x[i];
+  }
+}
+
+// Elimination and factorization of cell c of lane l (after assemble_lane):
+//   Â = A − U_{c−1}ᵀ G_{c−1},  ŷ = y − U_{c−1}ᵀ g_{c−1}  (c > 0),
+// fixed unknowns → identity rows, Â = L Lᵀ, g_c = Â⁻¹ŷ, G_c = Â⁻¹U_c (not for
+// the last cell), stored in the scratch.
+template <bool kFirst, bool kLast, int W, class T>
+MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cell<T, W>& cur,
+                                       const ImplicitScratchView<T>& sc) {
+  T A[21], y[6];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 21; ++i) A[i] = cur.A[i][l];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 6; ++i) y[i] = cur.y[i][l];
+  if constexpr (!kFirst) schur_lane(l, (c - 1) * W + l, prev, sc, A, y);
+  fix_lane(l, cur, A, y);
+  factor_lane(A);
+  solve_lane(A, y);
   const int at = c * W + l;
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) sc.g[i][at] = y[i];
-  if constexpr (!kLast) {
-    // G = L⁻ᵀ L⁻¹ U column by column; column j of U (and of L⁻¹U) is zero
-    // above row u_row0(j)
-    MANYRODS_UNROLL_ALL
-    for (int j = 0; j < 6; ++j) {
-      T x[6];
-      MANYRODS_UNROLL_ALL
-      for (int i = 0; i < 6; ++i) {
-        if (i < u_row0(j)) {
-          x[i] = T(0);
-          continue;
-        }
-        T v = cur.U[ui(i, j)][l];
-        MANYRODS_UNROLL_ALL
-        for (int r = u_row0(j); r < i; ++r) v -= A[lt(i, r)] * x[r];
-        x[i] = v * A[lt(i, i)];
-      }
-      MANYRODS_UNROLL_ALL
-      for (int i = 5; i >= 0; --i) {
-        T v = x[i];
-        MANYRODS_UNROLL_ALL
-        for (int r = i + 1; r < 6; ++r) v -= A[lt(r, i)] * x[r];
-        x[i] = v * A[lt(i, i)];
-      }
-      MANYRODS_UNROLL_ALL
-      for (int i = 0; i < 6; ++i) sc.G[6 * i + j][at] = x[i];
-    }
-  }
+  if constexpr (!kLast) solve_u_lane(l, at, A, cur, sc);
 }
 
 // Back substitution for cell c of lane l: u_c = g_c − G_c u_{c+1}

@@ -152,11 +152,16 @@ struct DrivenHold {
 // The rods of one call of the implicit per-rod solve: `count` rods of
 // SolvePlan::rods from `first`, longest first, solved one per SIMD lane
 // (count ≥ 2; `half`: at half the lane width, because a full group of its
-// longest rod does not fit a thread's buffer) or by the scalar kernel
-// (count = 1). docs/architecture.md "The implicit-solve plan".
+// longest rod does not fit a thread's buffer), by the scalar kernel
+// (count = 1), or — one long rod (count = 1, parts > 0) — cut into `parts`
+// partitions solved one per lane (kernels/viscous_implicit_partitioned.h),
+// with its values at `offset` in Scratch::visc_partition.
+// docs/architecture.md "The implicit-solve plan".
 struct SolveGroup {
   int first = 0, count = 0;
   bool half = false;
+  int parts = 0;
+  std::size_t offset = 0;
 };
 
 // Which rods the implicit solve visits, grouped once when the batch is built.
@@ -165,6 +170,7 @@ struct SolvePlan {
   int buffer_cells = 0;     // cells per thread of the buffer it was built for
   std::vector<int> rods;    // per segment, longest first (then by index)
   std::vector<SolveGroup> groups;
+  std::size_t partition_values = 0;  // Scratch::visc_partition it needs
 };
 
 struct RodInfo {
@@ -243,6 +249,8 @@ struct Scratch {
   std::array<Array<T>, 36> visc_G;
   std::array<Array<T>, 6> visc_g;
   int visc_cells = 0, visc_threads = 0;
+  // the partitioned solves of long rods (SolveGroup::parts), one block per rod
+  std::vector<T> visc_partition;
   // [6 × driven roots] the root velocity and clamp angular velocity of each
   // driven root, kept across the implicit solve (which runs on velocities
   // relative to the root's rigid motion); entry i belongs to RodBatch::driven[i]
