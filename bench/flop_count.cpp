@@ -6,9 +6,11 @@
 // or a drift turns by more than ½ rad.
 //
 // usage: manyrods-flops   (prints a table; bench/RESULTS.md quotes it)
+#include <algorithm>
 #include <cstdio>
 #include <vector>
 
+#include "kernels/viscous_implicit_partitioned.h"
 #include "manyrods/advanced.h"
 
 namespace {
@@ -59,7 +61,10 @@ struct Mirror {
 
 template <Terms kT>
 void count(const char* name) {
-  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0.2, 0.1}, {0, 0, 1}, 0.3, 6);
+  // 6 elements are counted (kernels on the first 7 cells); the rod is
+  // 4 × 64 long for the partitioned solve
+  constexpr int kParts = 4, kLong = kParts * 64;
+  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0.2, 0.1}, {0, 0, 1}, 0.3 * kLong / 6, kLong);
   s.section = Section::rectangle(0.01, 0.01);
   s.material = {1000, 1e6, 0.3};
   s.damping = Damping::shear_extension(0.02, 0.02);
@@ -121,7 +126,7 @@ void count(const char* name) {
     dynamic_element<kT>(k, h, m, l, as_const(sc), st);
   });
   const long total = 2 * drift.total() + res.total() + kick.total();
-  long visc = 0, visc_lanes = 0, visc_lanes_div = 0;
+  long visc = 0, visc_lanes = 0, visc_lanes_div = 0, visc_parts = 0;
   if constexpr (kT.kelvin_voigt) {
     ImplicitScratchView<F> isc{};
     std::vector<std::vector<F>> arrays(42, std::vector<F>(S + 2 * kGuard));
@@ -143,13 +148,36 @@ void count(const char* name) {
     const Count vl = measure([&] { viscous_implicit_lanes<kT, kW>(first, cells, h, stiff_h, m, st, lsc); });
     visc_lanes = vl.total() / (7 * kW);
     visc_lanes_div = (vl.div + vl.sqrt) / (7 * kW);
+    // the partitioned solve of one long rod (kernels/viscous_implicit_partitioned.h):
+    // k = 64 cells per partition, one partition per lane (kW lanes), per cell
+    // of the rod: both passes of the lanes, and the separators' system
+    constexpr int k = 64;
+    std::vector<std::vector<F>> part_arrays(78, std::vector<F>(kW * (k + 1)));
+    std::vector<std::vector<F>> out_arrays(kPartitionOut, std::vector<F>(kParts + 1));
+    std::vector<F> work(78 * (kParts + 1));
+    std::vector<std::vector<F>> xs(6, std::vector<F>(kParts + 1));
+    PartitionScratchView<F> psc{};
+    for (int i = 0; i < 36; ++i) psc.e.G[i] = part_arrays[i].data();
+    for (int i = 0; i < 6; ++i) psc.e.g[i] = part_arrays[36 + i].data();
+    for (int i = 0; i < 36; ++i) psc.H[i] = part_arrays[42 + i].data();
+    for (int i = 0; i < kPartitionOut; ++i) psc.out[i] = out_arrays[i].data();
+    F* x[6];
+    for (int i = 0; i < 6; ++i) x[i] = xs[i].data();
+    int part[kW];
+    for (int l = 0; l < kW; ++l) part[l] = std::min(l, kParts - 1);  // (lanes beyond the rod repeat its last partition)
+    const int rod_cells = kParts * k, first_cell = b.rods[0].offset + 1;
+    const Count pf = measure([&] { partitioned_forward<kT, kW>(first_cell, rod_cells, k, part, h, F(0), m, st, psc); });
+    const Count pr = measure([&] { partitioned_reduced(first_cell, rod_cells, k, m, st, psc, x, work.data()); });
+    const Count pb = measure([&] { partitioned_back<kW>(first_cell, rod_cells, k, part, st, psc, x); });
+    visc_parts = (pf.total() + pb.total()) / (kW * k) + pr.total() / rod_cells;
   }
   std::printf("%-22s drift %4ld  resultants %4ld  kick %4ld  step %4ld FLOP per element-step (div %ld, sqrt %ld)",
               name, drift.total(), res.total(), kick.total(), total,
               2 * drift.div + res.div + kick.div, 2 * drift.sqrt + res.sqrt + kick.sqrt);
   if (visc)
-    std::printf("; implicit viscous solve %ld per element (rod per lane: %ld, of which %ld div/sqrt)", visc,
-                visc_lanes, visc_lanes_div);
+    std::printf("; implicit viscous solve %ld per element (rod per lane: %ld, of which %ld div/sqrt; "
+                "one long rod in partitions: %ld)",
+                visc, visc_lanes, visc_lanes_div, visc_parts);
   std::printf("\n");
 }
 
