@@ -478,6 +478,32 @@ MANYRODS_HD inline T idle_value(int a) {
   return T(0);
 }
 
+// Stage 0 of the lane kernels: the kPacked per-cell inputs of W lanes into
+// P (value a of group cell c, lane l at P[a][c·W + l]); lane l's cell c is
+// slot base[l] + c, for c in [0, n); its cells before lead[l] are idle
+// (idle_value), and from lead_all on every lane's cells are real.
+template <int W, class T>
+MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView<T>& cs, const int* base,
+                                    const int* lead, int lead_all, int n, T* const* P) {
+  const T* const in[kPacked] = {
+      cs.node_x[0],        cs.node_x[1],        cs.node_x[2],        cs.node_v[0],        cs.node_v[1],
+      cs.node_v[2],        cs.elem_w[0],        cs.elem_w[1],        cs.elem_w[2],        cs.elem_Q[0],
+      cs.elem_Q[1],        cs.elem_Q[2],        cs.elem_Q[3],        cs.elem_Q[4],        cs.elem_Q[5],
+      cs.elem_Q[6],        cs.elem_Q[7],        cs.elem_Q[8],        mv.elem_rest_length, mv.elem_stiffness[0],
+      mv.elem_stiffness[1], mv.elem_stiffness[2], mv.elem_tau[0],    mv.elem_tau[1],      mv.elem_tau[2],
+      mv.vor_rest_length,  mv.vor_stiffness[0], mv.vor_stiffness[1], mv.vor_stiffness[2], mv.vor_tau[0],
+      mv.vor_tau[1],       mv.vor_tau[2],       mv.node_mass,        mv.elem_inertia[0],  mv.elem_inertia[1],
+      mv.elem_inertia[2],  mv.node_inv_mass,    mv.elem_inv_inertia[0], mv.elem_inv_inertia[1],
+      mv.elem_inv_inertia[2]};
+  for (int a = 0; a < kPacked; ++a) {
+    const T* src[W];
+    for (int l = 0; l < W; ++l) src[l] = in[a] + base[l];
+    pack_lanes<W>(P[a], src, lead_all, n);
+    for (int c = 0; c < lead_all; ++c)  // lanes not yet in their rods
+      for (int l = 0; l < W; ++l) P[a][c * W + l] = c >= lead[l] ? src[l][c] : idle_value<T>(a);
+  }
+}
+
 }  // namespace lanes_detail
 
 // Backward-Euler viscous update of W rods, rod l with cells[l] cells at
@@ -537,23 +563,9 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
   const int all_started = all_real - 1;  // … or in its root ghost slot
   // 0. pack: group cell c of lane l is slot f[l] − start[l] + c
   {
-    const T* const in[kPacked] = {
-        cs.node_x[0],        cs.node_x[1],        cs.node_x[2],        cs.node_v[0],        cs.node_v[1],
-        cs.node_v[2],        cs.elem_w[0],        cs.elem_w[1],        cs.elem_w[2],        cs.elem_Q[0],
-        cs.elem_Q[1],        cs.elem_Q[2],        cs.elem_Q[3],        cs.elem_Q[4],        cs.elem_Q[5],
-        cs.elem_Q[6],        cs.elem_Q[7],        cs.elem_Q[8],        mv.elem_rest_length, mv.elem_stiffness[0],
-        mv.elem_stiffness[1], mv.elem_stiffness[2], mv.elem_tau[0],    mv.elem_tau[1],      mv.elem_tau[2],
-        mv.vor_rest_length,  mv.vor_stiffness[0], mv.vor_stiffness[1], mv.vor_stiffness[2], mv.vor_tau[0],
-        mv.vor_tau[1],       mv.vor_tau[2],       mv.node_mass,        mv.elem_inertia[0],  mv.elem_inertia[1],
-        mv.elem_inertia[2],  mv.node_inv_mass,    mv.elem_inv_inertia[0], mv.elem_inv_inertia[1],
-        mv.elem_inv_inertia[2]};
-    for (int a = 0; a < kPacked; ++a) {
-      const T* src[W];
-      for (int l = 0; l < W; ++l) src[l] = in[a] + (f[l] - start[l]);
-      pack_lanes<W>(P[a], src, all_started, n);
-      for (int c = 0; c < all_started; ++c)  // lanes not yet in their rods
-        for (int l = 0; l < W; ++l) P[a][c * W + l] = c >= start[l] - 1 ? src[l][c] : idle_value<T>(a);
-    }
+    int base[W], lead[W];
+    for (int l = 0; l < W; ++l) base[l] = f[l] - start[l], lead[l] = start[l] - 1;
+    pack_inputs<W>(mv, cs, base, lead, all_started, n, P);
   }
   Cell<T, W> cell[2];  // cell c in cell[c & 1], its predecessor in the other
   auto any_general = [](const Cell<T, W>& x) {

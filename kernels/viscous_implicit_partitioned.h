@@ -225,23 +225,7 @@ MANYRODS_HD inline void partitioned_forward(int first, int cells, int k, const i
     max_idle = idle[l] > max_idle ? idle[l] : max_idle;
   }
   {
-    const T* const in[kPacked] = {
-        cs.node_x[0],        cs.node_x[1],        cs.node_x[2],        cs.node_v[0],        cs.node_v[1],
-        cs.node_v[2],        cs.elem_w[0],        cs.elem_w[1],        cs.elem_w[2],        cs.elem_Q[0],
-        cs.elem_Q[1],        cs.elem_Q[2],        cs.elem_Q[3],        cs.elem_Q[4],        cs.elem_Q[5],
-        cs.elem_Q[6],        cs.elem_Q[7],        cs.elem_Q[8],        mv.elem_rest_length, mv.elem_stiffness[0],
-        mv.elem_stiffness[1], mv.elem_stiffness[2], mv.elem_tau[0],    mv.elem_tau[1],      mv.elem_tau[2],
-        mv.vor_rest_length,  mv.vor_stiffness[0], mv.vor_stiffness[1], mv.vor_stiffness[2], mv.vor_tau[0],
-        mv.vor_tau[1],       mv.vor_tau[2],       mv.node_mass,        mv.elem_inertia[0],  mv.elem_inertia[1],
-        mv.elem_inertia[2],  mv.node_inv_mass,    mv.elem_inv_inertia[0], mv.elem_inv_inertia[1],
-        mv.elem_inv_inertia[2]};
-    for (int a = 0; a < kPacked; ++a) {
-      const T* src[W];
-      for (int l = 0; l < W; ++l) src[l] = in[a] + base[l];
-      pack_lanes<W>(P[a], src, max_idle, k + 1);
-      for (int c = 0; c < max_idle; ++c)
-        for (int l = 0; l < W; ++l) P[a][c * W + l] = c >= idle[l] ? src[l][c] : idle_value<T>(a);
-    }
+    pack_inputs<W>(mv, cs, base, idle, max_idle, k + 1, P);
     // R's mass and inertia belong to the next partition's L (but at the tip)
     const int massive[4] = {kMass, kInertia, kInertia + 1, kInertia + 2};
     for (int a : massive)
