@@ -318,7 +318,7 @@ std::size_t RodBatch<T>::bytes() const {
 #undef MANYRODS_BYTES_SCRATCH
 #undef MANYRODS_BYTES_LOADS
 #undef MANYRODS_BYTES
-  b += field_bytes(scratch.visc_G) + field_bytes(scratch.visc_g);
+  b += field_bytes(scratch.visc_G) + field_bytes(scratch.visc_g) + field_bytes(scratch.visc_wide);
   return b;
 }
 
@@ -383,6 +383,8 @@ void RodBatch<T>::reserve_implicit_scratch(int threads, int min_cells) {
   const std::size_t n = std::size_t(scratch.visc_cells) * std::size_t(scratch.visc_threads);
   for (auto& a : scratch.visc_G) a.resize(n, T(0));
   for (auto& a : scratch.visc_g) a.resize(n, T(0));
+  if (sizeof(T) < sizeof(double) && any_stiff_)
+    for (auto& a : scratch.visc_wide) a.resize(n, 0.0);
 }
 
 template <class T>
@@ -391,6 +393,15 @@ ImplicitScratchView<T> RodBatch<T>::implicit_scratch_view(int thread, int cell_o
   ImplicitScratchView<T> v{};
   for (int i = 0; i < 36; ++i) v.G[i] = scratch.visc_G[i].data() + at;
   for (int i = 0; i < 6; ++i) v.g[i] = scratch.visc_g[i].data() + at;
+  return v;
+}
+
+template <class T>
+ImplicitScratchView<double> RodBatch<T>::wide_implicit_scratch_view(int thread) {
+  const std::size_t at = std::size_t(thread) * std::size_t(scratch.visc_cells);
+  ImplicitScratchView<double> v{};
+  for (int i = 0; i < 36; ++i) v.G[i] = scratch.visc_wide[i].data() + at;
+  for (int i = 0; i < 6; ++i) v.g[i] = scratch.visc_wide[36 + i].data() + at;
   return v;
 }
 

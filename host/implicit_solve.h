@@ -188,12 +188,16 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
   // twice: two copies may contract a·b + c into FMAs differently, and the
   // results would then depend on the branch, i.e. on the thread count).
   constexpr int W2 = W >= 4 ? W / 2 : 1;
+  // a float batch's stiff rods: in double, kImplicitLanes<double> lanes at a
+  // time (a group of W float lanes in two halves; a rod alone in one lane)
+  constexpr int kWide = kImplicitLanes<double>;
+  const bool wide = sizeof(T) < sizeof(double) && r.stiff && ex.stiff_solve_in_double && W >= kWide && W % kWide == 0;
   auto solve = [&](int group, int t) MANYRODS_NOINLINE {
     const SolveGroup& grp = plan->groups[group];
     if (grp.parts > 0) return;  // below
     const int* rods = plan->rods.data() + grp.first;
     const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
-    if (grp.count > 1) {
+    if (grp.count > 1 || (wide && !b.rods[rods[0]].prescribed)) {
       int first[W], cells[W];
       T stiff_h[W];
       for (int j = 0; j < W; ++j) {
@@ -202,6 +206,17 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
         cells[j] = rod.elements + 1;
         stiff_h[j] = rod.stiff_implicit ? h : T(0);
       }
+      if constexpr (W >= kWide && W % kWide == 0 && sizeof(T) < sizeof(double))
+        if (wide) {
+          const ImplicitScratchView<double> wsc = b.wide_implicit_scratch_view(t);
+          if (grp.count == 1) {
+            viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, wsc);
+            return;
+          }
+          for (int j = 0; j < grp.count; j += kWide)
+            viscous_implicit_lanes<kT, kWide>(first + j, cells + j, h, stiff_h + j, m, s, wsc);
+          return;
+        }
       if constexpr (W2 > 1)
         if (grp.half) {
           viscous_implicit_lanes<kT, W2>(first, cells, h, stiff_h, m, s, sc);

@@ -34,7 +34,8 @@ Segment whole(const RodBatch<T>& b) {
 template <class T, class F>
 void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
   const int n = int(b.segments.size());
-  const Exec serial{1, ex.profile, ex.flush_subnormals};
+  Exec serial = ex;  // every option of the caller's, on one thread
+  serial.threads = 1;
   if (ex.profile) ex.profile->reserve(ex.threads);
   const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's, for every thread (host/fp_env.h)
   for (int parity = 0; parity < 2; ++parity) {

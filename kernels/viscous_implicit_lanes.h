@@ -453,19 +453,19 @@ MANYRODS_HD inline void back_lane(int l, int c, T (&next)[6][W], const ImplicitS
 // dst[c·W + l] = src[l][c] for c in [c0, c1): a W × cells transpose, written
 // so that the compiler vectorizes it along c with contiguous loads, in-register
 // permutes and contiguous stores (gathers would cost several times more).
-template <int W, class T>
-MANYRODS_HD inline void pack_lanes(T* dst, const T* const (&src)[W], int c0, int c1) {
+template <int W, class D, class S>
+MANYRODS_HD inline void pack_lanes(D* dst, const S* const (&src)[W], int c0, int c1) {
   for (int c = c0; c < c1; ++c) {
     MANYRODS_UNROLL_ALL
-    for (int l = 0; l < W; ++l) dst[c * W + l] = src[l][c];
+    for (int l = 0; l < W; ++l) dst[c * W + l] = D(src[l][c]);
   }
 }
 // dst[l][c] = src[c·W + l] for c in [c0, c1): the inverse.
-template <int W, class T>
-MANYRODS_HD inline void unpack_lanes(T* const (&dst)[W], const T* src, int c0, int c1) {
+template <int W, class D, class S>
+MANYRODS_HD inline void unpack_lanes(D* const (&dst)[W], const S* src, int c0, int c1) {
   for (int c = c0; c < c1; ++c) {
     MANYRODS_UNROLL_ALL
-    for (int l = 0; l < W; ++l) dst[l][c] = src[c * W + l];
+    for (int l = 0; l < W; ++l) dst[l][c] = D(src[c * W + l]);
   }
 }
 
@@ -482,9 +482,9 @@ MANYRODS_HD inline T idle_value(int a) {
 // P (value a of group cell c, lane l at P[a][c·W + l]); lane l's cell c is
 // slot base[l] + c, for c in [0, n); its cells before lead[l] are idle
 // (idle_value), and from lead_all on every lane's cells are real.
-template <int W, class T>
+template <int W, class T, class Tc>
 MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView<T>& cs, const int* base,
-                                    const int* lead, int lead_all, int n, T* const* P) {
+                                    const int* lead, int lead_all, int n, Tc* const* P) {
   const T* const in[kPacked] = {
       cs.node_x[0],        cs.node_x[1],        cs.node_x[2],        cs.node_v[0],        cs.node_v[1],
       cs.node_v[2],        cs.elem_w[0],        cs.elem_w[1],        cs.elem_w[2],        cs.elem_Q[0],
@@ -500,7 +500,7 @@ MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView
     for (int l = 0; l < W; ++l) src[l] = in[a] + base[l];
     pack_lanes<W>(P[a], src, lead_all, n);
     for (int c = 0; c < lead_all; ++c)  // lanes not yet in their rods
-      for (int l = 0; l < W; ++l) P[a][c * W + l] = c >= lead[l] ? src[l][c] : idle_value<T>(a);
+      for (int l = 0; l < W; ++l) P[a][c * W + l] = c >= lead[l] ? Tc(src[l][c]) : idle_value<Tc>(a);
   }
 }
 
@@ -534,21 +534,31 @@ MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView
 //   1. per cell, forwards: assemble (small-rotation path; flagged lanes again
 //      with the general path), eliminate, factor, G_c and g_c;
 //   2. per cell, backwards: u_c over g_c; then unpacked into node_v, elem_w.
-template <Terms kT, int W, class T>
+//
+// Tc: the precision of the solve (the buffer's), T otherwise: a float batch's
+// stiff rods are solved in double (Tc = double). Their system (M + h D)
+// with the stiffness in D is ill-conditioned (h²ω² ≈ 10⁵ for the stretch
+// and shear modes of hair at frame-rate steps): a float elimination leaves an
+// error of about ε·h²ω²·|u| in the slow (bending, swinging) modes, which
+// builds up to a different motion within a second. In double only the
+// packing reads floats and the unpacking rounds u⁺ to float once
+// (bench/RESULTS.md "Float stiff rods").
+template <Terms kT, int W, class T, class Tc>
 MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cells, T h, const T* stiff_h,
                                                const ModelView<T>& m, const StateView<T>& s,
-                                               const ImplicitScratchView<T>& sc) {
+                                               const ImplicitScratchView<Tc>& sc) {
   using namespace lanes_detail;
   // Local copies of the views: no store in the lane loops can alias them, so
   // their pointers stay in registers (as in host/launch.h).
   const ModelView<T> mv = m;
   const ConstStateView<T> cs = as_const(s);
-  const ImplicitScratchView<T> scv = sc;
-  T* P[42];
+  const ImplicitScratchView<Tc> scv = sc;
+  Tc* P[42];
   for (int i = 0; i < 36; ++i) P[i] = scv.G[i];
   for (int i = 0; i < 6; ++i) P[36 + i] = scv.g[i];
   int f[W], start[W];  // first slot; group cell of the rod's cell 0
-  T sh[W];
+  Tc sh[W];
+  const Tc hc = Tc(h);
   // n: the longest rod's cells plus its root ghost cell
   int n = 0;
   for (int l = 0; l < W; ++l) n = cells[l] > n ? cells[l] : n;
@@ -556,7 +566,7 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
   int all_real = 0;  // from this cell on, every lane is in its rod
   for (int l = 0; l < W; ++l) {
     f[l] = first[l];
-    sh[l] = stiff_h[l];
+    sh[l] = Tc(stiff_h[l]);
     start[l] = n - cells[l];  // ≥ 1
     all_real = start[l] > all_real ? start[l] : all_real;
   }
@@ -567,27 +577,27 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
     for (int l = 0; l < W; ++l) base[l] = f[l] - start[l], lead[l] = start[l] - 1;
     pack_inputs<W>(mv, cs, base, lead, all_started, n, P);
   }
-  Cell<T, W> cell[2];  // cell c in cell[c & 1], its predecessor in the other
-  auto any_general = [](const Cell<T, W>& x) {
+  Cell<Tc, W> cell[2];  // cell c in cell[c & 1], its predecessor in the other
+  auto any_general = [](const Cell<Tc, W>& x) {
     int any = 0;
     for (int l = 0; l < W; ++l) any |= x.general[l];
     return any != 0;
   };
   for (int i = 0; i < 12; ++i)  // nothing is carried into cell 0 (idle or root ghost in every lane)
-    for (int l = 0; l < W; ++l) cell[1].carry[i][l] = T(0);
+    for (int l = 0; l < W; ++l) cell[1].carry[i][l] = Tc(0);
   // 1. forward elimination
   for (int c = 0; c < n; ++c) {
-    const Cell<T, W>& prev = cell[(c + 1) & 1];
-    Cell<T, W>& cur = cell[c & 1];
+    const Cell<Tc, W>& prev = cell[(c + 1) & 1];
+    Cell<Tc, W>& cur = cell[c & 1];
     if (c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) assemble_lane<kT, true, false>(l, c, h, sh[l], P, prev, cur);
+      for (int l = 0; l < W; ++l) assemble_lane<kT, true, false>(l, c, hc, sh[l], P, prev, cur);
       if (any_general(cur))
         for (int l = 0; l < W; ++l)
-          if (cur.general[l]) assemble_lane<kT, false, false>(l, c, h, sh[l], P, prev, cur);
+          if (cur.general[l]) assemble_lane<kT, false, false>(l, c, hc, sh[l], P, prev, cur);
     } else {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) assemble_lane<kT, true, true>(l, c, h, sh[l], P, prev, cur);
+      for (int l = 0; l < W; ++l) assemble_lane<kT, true, true>(l, c, hc, sh[l], P, prev, cur);
     }
     if (c == 0 && c + 1 < n) {
       MANYRODS_LANES
@@ -604,7 +614,7 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
     }
   }
   // 2. back substitution, then u⁺ out to the rods (their own cells only)
-  T next[6][W];
+  Tc next[6][W];
   MANYRODS_LANES
   for (int l = 0; l < W; ++l) back_lane<true>(l, n - 1, next, scv);
   for (int c = n - 2; c >= 0; --c) {
@@ -618,7 +628,7 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
     unpack_lanes<W>(dst, scv.g[d], all_real, n);
     for (int c = 0; c < all_real; ++c)
       for (int l = 0; l < W; ++l)
-        if (c >= start[l]) dst[l][c] = scv.g[d][c * W + l];
+        if (c >= start[l]) dst[l][c] = T(scv.g[d][c * W + l]);
   }
 }
 

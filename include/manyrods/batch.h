@@ -249,6 +249,9 @@ struct Scratch {
   std::array<Array<T>, 36> visc_G;
   std::array<Array<T>, 6> visc_g;
   int visc_cells = 0, visc_threads = 0;
+  // The same buffer in double, for a float batch's stiff rods (solved in
+  // double: kernels/viscous_implicit_lanes.h); empty otherwise.
+  std::array<Array<double>, 42> visc_wide;
   // the partitioned solves of long rods (SolveGroup::parts), one block per rod
   std::vector<T> visc_partition;
   // [6 × driven roots] the root velocity and clamp angular velocity of each
@@ -344,6 +347,9 @@ class RodBatch {
   // (min_cells: at least that many cells per thread, e.g. for a lane group)
   void reserve_implicit_scratch(int threads, int min_cells = 0);
   ImplicitScratchView<T> implicit_scratch_view(int thread, int cell_offset);
+  // Thread t's double buffer (a float batch with stiff rods, after
+  // reserve_implicit_scratch).
+  ImplicitScratchView<double> wide_implicit_scratch_view(int thread);
   bool any_stiff() const { return any_stiff_; }
   // The step's fluid stage runs (set_fluid with some rod that has drag or buoyancy).
   bool any_fluid() const { return fluid.on; }

@@ -41,6 +41,12 @@ struct Exec {
   // false keeps IEEE gradual underflow (last bits may differ; the physics
   // does not: a subnormal is below 1.2e-38). Double steps ignore it.
   bool flush_subnormals = true;
+  // A float batch's stiff rods (RodSpec::stiff_implicit) have their implicit
+  // solve in double: in float its ill-conditioned system (h²ω² ≈ 10⁵ for
+  // hair at frame-rate steps) loses the slow motion within a second
+  // (docs/model.md "Stiff rods in float"). false: the solve in float, for
+  // comparison only. Double batches ignore it.
+  bool stiff_solve_in_double = true;
 };
 
 // How the Kelvin–Voigt force is integrated.
