@@ -105,12 +105,15 @@ BenchResult bench_scene(const Scene& s, const BenchOptions& opt) {
   r.terms = terms_text(batch.choice());
   r.integrator = batch.choice().integrator == Integrator::pefrl ? "pefrl" : "position_verlet";
   r.step_path = active_step_path();
+  r.stiff_solve_float = batch.float32() && batch.visit([](const auto& b) { return b.any_stiff(); }) &&
+                        !opt.stiff_solve_in_double;
   r.threads = opt.threads;
   r.rods = batch.rod_count();
   r.dt = batch.scene_dt();
   Profile profile;
   const auto advance = [&](std::int64_t n, Profile* p) {
-    const Exec ex{opt.threads, p};
+    Exec ex{opt.threads, p};
+    ex.stiff_solve_in_double = opt.stiff_solve_in_double;
     batch.visit([&](auto& b) {
       using T = typename std::remove_reference_t<decltype(b)>::value_type;
       advance_scene(b, batch.choice(), T(r.dt), n, ex);
@@ -170,9 +173,10 @@ std::string bench_report(const BenchResult& r) {
   std::ostringstream o;
   char line[512];
   std::snprintf(line, sizeof line,
-                "scene %s: %lld rods, %lld elements, %s, %s, %s, dt = %.4g s, step path %s, %d thread%s\n",
-                r.scene.c_str(), (long long)r.rods, (long long)r.elements, r.precision.c_str(), r.terms.c_str(),
-                r.integrator.c_str(), r.dt, r.step_path.c_str(), r.threads, r.threads == 1 ? "" : "s");
+                "scene %s: %lld rods, %lld elements, %s%s, %s, %s, dt = %.4g s, step path %s, %d thread%s\n",
+                r.scene.c_str(), (long long)r.rods, (long long)r.elements, r.precision.c_str(),
+                r.stiff_solve_float ? " (stiff rods solved in float)" : "", r.terms.c_str(), r.integrator.c_str(), r.dt,
+                r.step_path.c_str(), r.threads, r.threads == 1 ? "" : "s");
   o << line;
   std::snprintf(line, sizeof line, "runs: %d of %lld steps after %lld warm-up steps; wall s:", int(r.run_s.size()),
                 (long long)r.steps, (long long)r.warmup);

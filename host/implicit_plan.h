@@ -11,11 +11,12 @@
 // group of fewer rods is filled with copies of its last rod by the solve.
 // Where `lanes` lanes of a rod do not fit a thread's buffer
 // (lanes × (cells + 1) > buffer cells), lanes/2 lanes run it (the kernel at
-// half width); a group of one rod, or one too long for that, is solved by
-// the scalar kernel. The groups depend only on the rods of the segment, and
+// half width); a group of one rod, or one too long for that, holds one rod
+// (the solve runs it in one lane in double, by the scalar kernel in float,
+// host/implicit_solve.h). The groups depend only on the rods of the segment, and
 // a rod's result only on the kernel that solves it (not on the other rods of
 // its group: the kernel's idle and ghost cells add exact zeros), never on
-// the thread count. A rod left to the scalar kernel alone that has at least
+// the thread count. A rod alone in its group that has at least
 // kPartitionMinCells cells is cut into partitions instead (SolveGroup::parts).
 #pragma once
 

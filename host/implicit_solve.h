@@ -197,36 +197,43 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
     if (grp.parts > 0) return;  // below
     const int* rods = plan->rods.data() + grp.first;
     const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
-    if (grp.count > 1 || (wide && !b.rods[rods[0]].prescribed)) {
-      int first[W], cells[W];
-      T stiff_h[W];
-      for (int j = 0; j < W; ++j) {
-        const RodInfo& rod = b.rods[rods[j < grp.count ? j : grp.count - 1]];
-        first[j] = rod.offset + 1;
-        cells[j] = rod.elements + 1;
-        stiff_h[j] = rod.stiff_implicit ? h : T(0);
-      }
-      if constexpr (W >= kWide && W % kWide == 0 && sizeof(T) < sizeof(double))
-        if (wide) {
-          const ImplicitScratchView<double> wsc = b.wide_implicit_scratch_view(t);
-          if (grp.count == 1) {
-            viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, wsc);
-            return;
-          }
-          for (int j = 0; j < grp.count; j += kWide)
-            viscous_implicit_lanes<kT, kWide>(first + j, cells + j, h, stiff_h + j, m, s, wsc);
-          return;
-        }
-      if constexpr (W2 > 1)
-        if (grp.half) {
-          viscous_implicit_lanes<kT, W2>(first, cells, h, stiff_h, m, s, sc);
-          return;
-        }
-      viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, m, s, sc);
-    } else {
+    // the scalar kernel: every rod at kLanes = 1 (the tests' reference); a
+    // rod with prescribed velocities (its delta form, see above); a float
+    // rod alone that is not solved in double (the delta form keeps float's
+    // precision in the slow modes, docs/model.md)
+    if (W == 1 || (grp.count == 1 && (b.rods[rods[0]].prescribed || (sizeof(T) < sizeof(double) && !wide)))) {
       const RodInfo& rod = b.rods[rods[0]];
       viscous_implicit_rod<kT>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s, sc);
+      return;
     }
+    int first[W], cells[W];
+    T stiff_h[W];
+    for (int j = 0; j < W; ++j) {
+      const RodInfo& rod = b.rods[rods[j < grp.count ? j : grp.count - 1]];
+      first[j] = rod.offset + 1;
+      cells[j] = rod.elements + 1;
+      stiff_h[j] = rod.stiff_implicit ? h : T(0);
+    }
+    if constexpr (W >= kWide && W % kWide == 0 && sizeof(T) < sizeof(double))
+      if (wide) {
+        const ImplicitScratchView<double> wsc = b.wide_implicit_scratch_view(t);
+        if (grp.count == 1) {
+          viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, wsc);
+          return;
+        }
+        for (int j = 0; j < grp.count; j += kWide)
+          viscous_implicit_lanes<kT, kWide>(first + j, cells + j, h, stiff_h + j, m, s, wsc);
+        return;
+      }
+    // a double rod alone in one lane (about 3× faster than the scalar
+    // kernel: the lane kernel's symmetric, structured elimination), a half or
+    // a full group
+    if (grp.count == 1)
+      viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, sc);
+    else if (W2 > 1 && grp.half)
+      viscous_implicit_lanes<kT, W2>(first, cells, h, stiff_h, m, s, sc);
+    else
+      viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, m, s, sc);
   };
   if (ex.threads > 1 && g1 - g0 > 1) {
     const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/fp_env.h)

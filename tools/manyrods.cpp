@@ -6,6 +6,7 @@
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
 //   manyrods bench scene.toml [--threads N] [--steps K] [--repeats R] [--warmup W] [--precision P] [--json F]
+//                  [--stiff-solve-float]
 //   manyrods --version
 //
 // Exit status: 0 done, 3 done with validity warnings, 1 the simulation
@@ -234,6 +235,7 @@ struct Options {
   std::vector<std::string> vary;
   // bench
   std::int64_t bench_steps = 0, bench_warmup = 0;
+  bool stiff_solve_float = false;
   int repeats = 5;
   std::string json, precision;
 };
@@ -330,6 +332,9 @@ Commands add_commands(CLI::App& app, Options& o) {
       ->check(CLI::IsMember({"float", "double"}));
   c.bench->add_option("--json", o.json, "write the runs in Google Benchmark's JSON format to this file");
   add_force_dt_flag(c.bench, o);
+  c.bench->add_flag("--stiff-solve-float", o.stiff_solve_float,
+                    "solve a float batch's stiff rods in float (faster; loses the slow motion at frame-rate steps: "
+                    "for comparison only)");
   return c;
 }
 
@@ -472,6 +477,7 @@ int command_bench(const Options& o) {
   opt.steps = o.bench_steps;
   opt.repeats = o.repeats;
   opt.warmup = o.bench_warmup;
+  opt.stiff_solve_in_double = !o.stiff_solve_float;
   if (!o.precision.empty()) opt.precision = o.precision == "float" ? Precision::float32 : Precision::float64;
   const BenchResult r = bench_scene(s, opt);
   std::fputs(bench_report(r).c_str(), stdout);

@@ -30,6 +30,7 @@ struct BenchOptions {
   double target_s = 0.5;
   std::optional<Precision> precision;  // default: the scene's
   bool ceilings = true;                // measure the FMA peak and the triad bandwidth
+  bool stiff_solve_in_double = true;   // Exec::stiff_solve_in_double (false: for comparison)
 };
 
 struct BenchResult {
@@ -38,6 +39,7 @@ struct BenchResult {
   std::string terms;       // e.g. "kelvin_voigt gravity colliders"
   std::string integrator;  // "position_verlet" or "pefrl"
   std::string step_path;   // include/manyrods/isa.h
+  bool stiff_solve_float = false;  // a float batch's stiff rods were solved in float (BenchOptions)
   int threads = 1;
   std::int64_t rods = 0, elements = 0;
   double dt = 0;
