@@ -148,6 +148,30 @@ def test_bench_times_a_scene_and_writes_google_benchmark_json(tmp_path):
     assert bad.returncode == 2 and "--repeats" in bad.stderr
 
 
+@pytest.mark.skipif(not CLI, reason="MANYRODS_CLI not set")
+def test_bench_solves_float_stiff_rods_in_double_unless_asked(tmp_path):
+    # 32 stiff hairs of the benchmark groom (bench/scenes/hair_10k_stiff.toml)
+    groom = os.path.join(os.path.dirname(__file__), "..", "..", "bench", "scenes", "hair_10k_stiff.toml")
+    text = open(groom).read().replace("count = 10000", "count = 32").replace("columns = 100", "columns = 8")
+    scene = tmp_path / "hair32.toml"
+    scene.write_text(text)
+
+    def bench(*extra):
+        r = subprocess.run([CLI, "bench", str(scene), "--steps", "64", "--warmup", "64", "--repeats", "1",
+                            "--threads", "1", *extra],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stdout + r.stderr
+        return r.stdout.splitlines()[0], re.search(r"state hash ([0-9a-f]{16})", r.stdout).group(1)
+
+    head, in_double = bench("--precision", "float")
+    assert "float," in head and "solved in float" not in head
+    head, in_float = bench("--precision", "float", "--stiff-solve-float")
+    assert "float (stiff rods solved in float)" in head
+    assert in_float != in_double  # a different solve, a different state
+    head, _ = bench("--precision", "double", "--stiff-solve-float")  # double batches ignore it
+    assert "solved in float" not in head
+
+
 def test_results_do_not_depend_on_the_thread_count():
     rods = [cantilever(damping=manyrods.Damping.shear_extension(0.01, 0.01)) for _ in range(8)]
     for i, r in enumerate(rods):
