@@ -3,6 +3,7 @@
 
 #include "host/rng.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <limits>
 #include <numbers>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 namespace manyrods::scene {
@@ -57,12 +59,44 @@ Extremum refine(const std::vector<double>& t, const std::vector<double>& u, std:
 Vary parse_vary(const std::string& arg) {
   const std::size_t eq = arg.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == arg.size())
-    throw SceneError("--vary " + arg + ": expected KEY=lo:hi:n, KEY=lo:hi, KEY=v1,v2,... or KEY=v");
+    throw SceneError("--vary " + arg +
+                     ": expected KEY=lo:hi:n, KEY=lo:hi, KEY=uniform:lo:hi, KEY=normal:mean:std[:lo:hi], "
+                     "KEY=lognormal:median:sigma, KEY=v1,v2,... (v@weight allowed) or KEY=v");
   Vary v;
   v.key = arg.substr(0, eq);
   const std::string spec = arg.substr(eq + 1);
-  if (spec.find(':') != std::string::npos) {
-    const auto p = split(spec, ':');
+  auto numbers = [&](const std::vector<std::string>& p, std::size_t from) {
+    std::vector<double> x;
+    for (std::size_t i = from; i < p.size(); ++i) x.push_back(parse_number(p[i], arg));
+    return x;
+  };
+  const auto p = split(spec, ':');
+  if (p[0] == "uniform") {
+    if (p.size() != 3) throw SceneError("--vary " + arg + ": uniform:lo:hi");
+    const auto x = numbers(p, 1);
+    v.lo = x[0], v.hi = x[1];
+    if (!(v.lo <= v.hi)) throw SceneError("--vary " + arg + ": uniform needs lo <= hi");
+  } else if (p[0] == "normal") {
+    if (p.size() != 3 && p.size() != 5)
+      throw SceneError("--vary " + arg + ": normal:mean:std or normal:mean:std:lo:hi (truncated)");
+    const auto x = numbers(p, 1);
+    v.kind = Vary::Kind::normal;
+    v.mean = x[0], v.std = x[1];
+    v.lo = p.size() == 5 ? x[2] : -HUGE_VAL;
+    v.hi = p.size() == 5 ? x[3] : HUGE_VAL;
+    if (!(v.std > 0)) throw SceneError("--vary " + arg + ": the standard deviation must be > 0");
+    if (!(v.lo < v.hi)) throw SceneError("--vary " + arg + ": the truncation needs lo < hi");
+    const double mass = normal_cdf((v.hi - v.mean) / v.std) - normal_cdf((v.lo - v.mean) / v.std);
+    if (!(mass > 1e-12))
+      throw SceneError("--vary " + arg + ": [lo, hi] holds no probability of this normal distribution");
+  } else if (p[0] == "lognormal") {
+    if (p.size() != 3) throw SceneError("--vary " + arg + ": lognormal:median:sigma");
+    const auto x = numbers(p, 1);
+    v.kind = Vary::Kind::lognormal;
+    v.mean = x[0], v.std = x[1];
+    if (!(v.mean > 0)) throw SceneError("--vary " + arg + ": the median must be > 0");
+    if (!(v.std > 0)) throw SceneError("--vary " + arg + ": sigma (of the log) must be > 0");
+  } else if (p.size() > 1) {
     if (p.size() != 2 && p.size() != 3) throw SceneError("--vary " + arg + ": a range is lo:hi or lo:hi:n");
     v.lo = parse_number(p[0], arg);
     v.hi = parse_number(p[1], arg);
@@ -75,35 +109,72 @@ Vary parse_vary(const std::string& arg) {
         throw SceneError("--vary " + arg + ": one value over a range; give n >= 2 or a single value");
     }
   } else {
-    for (const std::string& s : split(spec, ',')) v.values.push_back(parse_number(s, arg));
+    v.kind = Vary::Kind::list;
+    const auto items = split(spec, ',');
+    int weighted = 0;
+    for (const std::string& item : items) {
+      const std::size_t at = item.find('@');
+      v.values.push_back(parse_number(item.substr(0, at), arg));
+      if (at != std::string::npos) {
+        ++weighted;
+        const double w = parse_number(item.substr(at + 1), arg);
+        if (!(w > 0)) throw SceneError("--vary " + arg + ": weight " + item.substr(at + 1) + " must be > 0");
+        v.weights.push_back(w);
+      }
+    }
+    if (weighted != 0 && weighted != int(items.size()))
+      throw SceneError("--vary " + arg + ": give a weight (v@w) to every value or to none");
   }
   return v;
 }
 
+double Vary::at(double u) const {
+  switch (kind) {
+    case Kind::uniform:
+      return lo + (hi - lo) * u;
+    case Kind::normal: {
+      // inverse CDF of the (truncated) normal: Φ⁻¹ of u mapped into [Φ(a), Φ(b)]
+      const double a = normal_cdf((lo - mean) / std), b = normal_cdf((hi - mean) / std);
+      return std::clamp(mean + std * normal_quantile(a + (b - a) * u), lo, hi);
+    }
+    case Kind::lognormal:
+      return mean * std::exp(std * normal_quantile(u));
+    case Kind::list:
+      break;
+  }
+  if (weights.empty()) return values[std::min(values.size() - 1, std::size_t(u * double(values.size())))];
+  double total = 0;
+  for (double w : weights) total += w;
+  double cum = 0;
+  for (std::size_t i = 0; i + 1 < values.size(); ++i) {
+    cum += weights[i];
+    if (u * total < cum) return values[i];
+  }
+  return values.back();
+}
+
 std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int samples,
                                               std::uint64_t seed) {
+  return sweep_points(vary, samples > 0 ? Design{DesignKind::mc, samples, seed} : Design{});
+}
+
+std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, const Design& design) {
   std::vector<std::vector<double>> pts;
   if (vary.empty()) throw SceneError("sweep: give at least one --vary");
-  if (samples > 0) {
-    Rng rng{seed};
-    for (int i = 0; i < samples; ++i) {
-      std::vector<double> row;
-      for (const Vary& v : vary) {
-        if (!v.values.empty()) {
-          row.push_back(
-              v.values[std::min(v.values.size() - 1, std::size_t(rng.next() * double(v.values.size())))]);
-        } else {
-          row.push_back(v.lo + (v.hi - v.lo) * rng.next());
-        }
-      }
-      pts.push_back(std::move(row));
-    }
+  if (design.kind != DesignKind::grid) {
+    pts = unit_points(design, int(vary.size()));
+    for (auto& row : pts)
+      for (std::size_t d = 0; d < vary.size(); ++d) row[d] = vary[d].at(row[d]);
     return pts;
   }
   std::vector<std::vector<double>> lists;
   for (const Vary& v : vary) {
-    if (!v.values.empty()) {
+    if (v.kind == Vary::Kind::list) {
+      if (!v.weights.empty())
+        throw SceneError("--vary " + v.key + ": weights need a sampled design (--samples N, --design mc|lhs|sobol)");
       lists.push_back(v.values);
+    } else if (v.kind != Vary::Kind::uniform) {
+      throw SceneError("--vary " + v.key + ": a distribution needs a sampled design (--samples N, --design mc|lhs|sobol)");
     } else {
       if (v.count == 0)
         throw SceneError("--vary " + v.key + "=" + std::to_string(v.lo) + ":" + std::to_string(v.hi) +
@@ -132,10 +203,15 @@ std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int
 }
 
 Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
-                 int samples, std::uint64_t seed) {
+                 const Design& design) {
   std::vector<std::string> names;
   for (const Vary& v : vary) names.push_back(v.key);
-  return make_sweep(text, source, std::move(names), sweep_points(vary, samples, seed));
+  return make_sweep(text, source, std::move(names), sweep_points(vary, design));
+}
+
+Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
+                 int samples, std::uint64_t seed) {
+  return make_sweep(text, source, vary, samples > 0 ? Design{DesignKind::mc, samples, seed} : Design{});
 }
 
 Sweep sweep_of_checkpoint(const h5::Checkpoint& c, const std::string& path) {
@@ -214,11 +290,52 @@ Sweep make_sweep(const std::string& text, const std::string& source, std::vector
   return sw;
 }
 
-Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<double>& u) {
+namespace {
+// Slope of y against x by least squares and its standard error (NaN with
+// fewer than three points).
+std::pair<double, double> fit_slope(const std::vector<double>& x, const std::vector<double>& y) {
+  const double m = double(x.size());
+  double mx = 0, my = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) mx += x[i] / m, my += y[i] / m;
+  double sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) sxx += (x[i] - mx) * (x[i] - mx), sxy += (x[i] - mx) * (y[i] - my);
+  const double slope = sxy / sxx;
+  if (x.size() < 3) return {slope, kNaN};
+  double ssr = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double r = y[i] - my - slope * (x[i] - mx);
+    ssr += r * r;
+  }
+  return {slope, std::sqrt(ssr / (m - 2) / sxx)};
+}
+}  // namespace
+
+Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<double>& u, double small) {
+  // Turning points with hysteresis (Billauer's peak detection): a maximum
+  // counts once the signal has fallen below it by a fifth of the last
+  // swing (max − min), a minimum once it has risen by as much, so that the
+  // ripples of higher modes riding on the fundamental are not taken for
+  // its peaks; the first swing's threshold is a fifth of the whole range.
+  // End samples are not turning points.
   std::vector<Extremum> maxima, minima;
-  for (std::size_t i = 1; i + 1 < u.size(); ++i) {
-    if (u[i] > u[i - 1] && u[i] >= u[i + 1]) maxima.push_back(refine(t, u, i));
-    if (u[i] < u[i - 1] && u[i] <= u[i + 1]) minima.push_back(refine(t, u, i));
+  if (u.size() < 3) return {kNaN, kNaN, 0, kNaN, kNaN};
+  double delta = 0.2 * (*std::max_element(u.begin(), u.end()) - *std::min_element(u.begin(), u.end()));
+  std::size_t imax = 0, imin = 0;
+  bool want_max = u[1] >= u[0];  // rising: the next turning point is a maximum
+  for (std::size_t i = 1; i < u.size(); ++i) {
+    if (u[i] > u[imax]) imax = i;
+    if (u[i] < u[imin]) imin = i;
+    if (want_max && u[i] < u[imax] - delta) {
+      if (imax > 0) maxima.push_back(refine(t, u, imax));
+      if (!minima.empty() && !maxima.empty()) delta = 0.2 * (maxima.back().u - minima.back().u);
+      want_max = false;
+      imin = i;
+    } else if (!want_max && u[i] > u[imin] + delta) {
+      if (imin > 0) minima.push_back(refine(t, u, imin));
+      if (!minima.empty() && !maxima.empty()) delta = 0.2 * (maxima.back().u - minima.back().u);
+      want_max = true;
+      imax = i;
+    }
   }
   // peak-to-peak amplitude of each maximum with the minimum that follows it
   std::vector<Extremum> pp;
@@ -228,14 +345,28 @@ Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<
     if (j == minima.size()) break;
     pp.push_back({m.t, m.u - minima[j].u});
   }
-  Oscillation o{kNaN, kNaN, 0};
-  std::size_t last = 0;
+  Oscillation o{kNaN, kNaN, 0, kNaN, kNaN};
+  if (pp.empty()) return o;
+  // the small-amplitude window: from the first cycle at most a quarter of the
+  // first one's amplitude (or below `small`) down to 1 % of the first
+  const double top = std::max(0.25 * pp[0].u, small);
+  std::size_t first = 0;
+  while (first < pp.size() && pp[first].u > top) ++first;
+  std::size_t last = first;
   while (last + 1 < pp.size() && pp[last + 1].u > 0.01 * pp[0].u) ++last;
-  if (pp.size() < 2 || last == 0) return o;
-  o.cycles = int(last);
-  o.period = (pp[last].t - pp[0].t) / double(last);
-  const double delta = std::log(pp[0].u / pp[last].u) / double(last);
-  o.damping_ratio = delta / std::sqrt(4 * std::numbers::pi * std::numbers::pi + delta * delta);
+  if (first >= pp.size() || last < first + 2) return o;  // fewer than three peaks: no estimate
+  std::vector<double> k, tk, lp;
+  for (std::size_t i = first; i <= last; ++i) {
+    k.push_back(double(i));
+    tk.push_back(pp[i].t);
+    lp.push_back(std::log(pp[i].u));
+  }
+  o.cycles = int(last - first);
+  std::tie(o.period, o.period_err) = fit_slope(k, tk);
+  auto [slope, slope_err] = fit_slope(k, lp);
+  const double decrement = -slope, four_pi2 = 4 * std::numbers::pi * std::numbers::pi;
+  o.damping_ratio = decrement / std::sqrt(four_pi2 + decrement * decrement);
+  o.damping_ratio_err = slope_err * four_pi2 / std::pow(four_pi2 + decrement * decrement, 1.5);
   return o;
 }
 
@@ -267,7 +398,9 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
                                {"tip_deflection_max_m", {}},
                                {"tip_deflection_final_m", {}},
                                {"period_s", {}},
+                               {"period_err_s", {}},
                                {"damping_ratio", {}},
+                               {"damping_ratio_err", {}},
                                {"cycles", {}},
                                {"energy_final_J", {}},
                                {"dissipated_J", {}},
@@ -290,22 +423,28 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
         if (dist(x, end) > dist(far, end)) far = x;
     const Vec3 dir{far[0] - end[0], far[1] - end[1], far[2] - end[2]};
     const double nd = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-    Oscillation o{kNaN, kNaN, 0};
+    Oscillation o{kNaN, kNaN, 0, kNaN, kNaN};
     if (nd > 0) {
       std::vector<double> u;
       for (const Vec3& x : r.tip)
         u.push_back(((x[0] - end[0]) * dir[0] + (x[1] - end[1]) * dir[1] + (x[2] - end[2]) * dir[2]) / nd);
-      o = analyse_oscillation(r.time, u);
+      // peak to peak below 10 % of the rod's length is small in any case
+      const std::vector<Vec3>& nodes = sw.scene.rods[sw.probes[i].tip_rod].nodes;
+      double length = 0;
+      for (std::size_t k = 1; k < nodes.size(); ++k) length += dist(nodes[k], nodes[k - 1]);
+      o = analyse_oscillation(r.time, u, 0.1 * length);
     }
     c[0].values.push_back(dist(r.tip.front(), rest));
     c[1].values.push_back(dmax);
     c[2].values.push_back(dist(r.tip.back(), rest));
     c[3].values.push_back(o.period);
-    c[4].values.push_back(o.damping_ratio);
-    c[5].values.push_back(o.cycles);
-    c[6].values.push_back(r.final_energy.total());
-    c[7].values.push_back(r.dissipated);
-    c[8].values.push_back(r.max_strain);
+    c[4].values.push_back(o.period_err);
+    c[5].values.push_back(o.damping_ratio);
+    c[6].values.push_back(o.damping_ratio_err);
+    c[7].values.push_back(o.cycles);
+    c[8].values.push_back(r.final_energy.total());
+    c[9].values.push_back(r.dissipated);
+    c[10].values.push_back(r.max_strain);
   }
   return c;
 }

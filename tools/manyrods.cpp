@@ -2,7 +2,7 @@
 //
 //   manyrods run scene.toml -o out.h5 [--threads N] [--until T] [--duration T]
 //   manyrods run --restart checkpoint.h5 -o out.h5 [--duration T] [--csv F]   (a run or a sweep)
-//   manyrods sweep scene.toml --vary KEY=lo:hi:n [--vary ...] [--samples N --seed S] [--until T] -o sweep.h5 [--csv F]
+//   manyrods sweep scene.toml --vary KEY=SPEC [--vary ...] [--design mc|lhs|sobol --samples N --seed S] [--until T] -o sweep.h5 [--csv F]
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
 //   manyrods bench scene.toml [--threads N] [--steps K] [--repeats R] [--warmup W] [--precision P] [--json F]
@@ -233,6 +233,7 @@ struct Options {
   bool force_dt = false, resume = false;
   double checkpoint_every = 300;
   std::vector<std::string> vary;
+  std::string design;  // sweep: grid, mc, lhs, sobol (empty: grid, or mc with --samples)
   // bench
   std::int64_t bench_steps = 0, bench_warmup = 0;
   bool stiff_solve_float = false;
@@ -294,12 +295,16 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
   const CLI::Validator positive = number_check(true), non_negative = number_check(false);
   CLI::App* sweep = app.add_subcommand("sweep", "run every variation of a scene as rods of one batch");
   sweep->add_option("scene", o.scene_path, "scene file (TOML)")->required();
-  sweep->add_option("--vary", o.vary, "KEY=lo:hi:n | KEY=lo:hi | KEY=v1,v2,.. (e.g. rods.0.damping.tau_extension=0.01:0.1:64)")
+  sweep->add_option("--vary", o.vary,
+                    "KEY=lo:hi:n | KEY=lo:hi | KEY=uniform:lo:hi | KEY=normal:mean:std[:lo:hi] | "
+                    "KEY=lognormal:median:sigma | KEY=v1,v2,.. (v@weight) (e.g. rods.0.damping.tau_extension=0.01:0.1:64)")
       ->required()
       ->allow_extra_args(false)  // one KEY=SPEC per --vary (repeat it), so a scene after it stays positional
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  sweep->add_option("--samples", o.samples, "random sampling: number of variations")->check(non_negative);
-  sweep->add_option("--seed", o.seed, "random sampling: seed");
+  sweep->add_option("--samples", o.samples, "sampled design: number of variations")->check(non_negative);
+  sweep->add_option("--seed", o.seed, "sampled design: seed");
+  sweep->add_option("--design", o.design, "grid (default without --samples), mc (default with it), lhs or sobol")
+      ->check(CLI::IsMember({"grid", "mc", "lhs", "sobol"}));
   sweep->add_option("-o,--output", o.output, "output HDF5 file")->required();
   sweep->add_option("--csv", o.csv, "summary CSV (default: the output with .csv)");
   sweep->add_option("--threads", o.threads, "OpenMP threads")->check(positive);
@@ -431,7 +436,13 @@ int command_run(const Options& o) {
 int command_sweep(const Options& o) {
   std::vector<Vary> vs;
   for (const std::string& v : o.vary) vs.push_back(parse_vary(v));
-  Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, o.samples, o.seed);
+  Design design{o.samples > 0 ? DesignKind::mc : DesignKind::grid, o.samples, o.seed};
+  if (!o.design.empty()) design.kind = parse_design(o.design);
+  if (design.kind == DesignKind::grid && o.samples > 0)
+    throw SceneError("--design grid runs every combination of the --vary lists; --samples applies to mc, lhs, sobol");
+  if (design.kind != DesignKind::grid && o.samples < 1)
+    throw SceneError(std::string("--design ") + design_name(design.kind) + " needs --samples N");
+  Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, design);
   sw.scene.sim.force_dt = o.force_dt;
   RunOptions opt = run_options(o);
   opt.checkpoint_every = 0;  // sweeps are written in one piece (a checkpoint at the end, Ctrl-C, --until)

@@ -4,13 +4,20 @@
 //
 // --vary KEY=SPEC, KEY a numeric key path of a [[rods]] group
 // ("rods.0.damping.tau_extension", "rods.0.initial_tip_force.0"), SPEC one of
-//   lo:hi:n   n values from lo to hi, evenly spaced, ends included
-//   lo:hi     a range for random sampling (--samples N --seed S)
-//   v1,v2,... the listed values
-//   v         one value
-// Without --samples the variations are the Cartesian product of all --vary
-// lists; with --samples N they are N points drawn uniformly from the ranges
-// (a lo:hi:n range is then sampled as lo:hi, a list by index).
+//   lo:hi:n                  n values from lo to hi, evenly spaced, ends included
+//   lo:hi, uniform:lo:hi     uniform on [lo, hi]
+//   normal:mean:std          normal
+//   normal:mean:std:lo:hi    normal truncated to [lo, hi]
+//   lognormal:median:sigma   log-normal, sigma the standard deviation of the log
+//   v1,v2,...                the listed values, equally likely
+//   v1@w1,v2@w2,...          the listed values with weights w (any positive scale)
+//   v                        one value
+// The grid design (the default without --samples) runs the Cartesian
+// product of all lists (lo:hi:n, lists, single values; a distribution there
+// is an error). A sampled design (--design mc|lhs|sobol --samples N --seed S,
+// include/manyrods/sampling.h) maps each point's coordinate u of a
+// parameter through that parameter's inverse CDF: a lo:hi:n range is then
+// sampled as uniform on [lo, hi], a list by its weights.
 #pragma once
 
 #include <cstdint>
@@ -19,20 +26,29 @@
 
 #include "manyrods/h5io.h"
 #include "manyrods/runner.h"
+#include "manyrods/sampling.h"
 #include "manyrods/scene.h"
 
 namespace manyrods::scene {
 
 struct Vary {
+  enum class Kind { uniform, normal, lognormal, list };
   std::string key;
-  double lo = 0, hi = 0;
-  int count = 0;               // lo:hi:n (0 for a bare range)
-  std::vector<double> values;  // a list or single value (empty for ranges)
+  Kind kind = Kind::uniform;
+  double lo = 0, hi = 0;       // uniform: the range; normal: the truncation (±inf: none)
+  int count = 0;               // uniform lo:hi:n: the grid's n (0 for a bare range)
+  double mean = 0, std = 0;    // normal: mean, standard deviation; lognormal: median, sigma of the log
+  std::vector<double> values;  // list (a single value is a list of one)
+  std::vector<double> weights; // list: empty (equal) or one per value
+  // The value at u ∈ (0, 1) (the inverse CDF).
+  double at(double u) const;
 };
 
 Vary parse_vary(const std::string& arg);  // SceneError on bad syntax
 
 // Rows of parameter values, one per variation, in the order of `vary`.
+std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, const Design& design);
+// (samples > 0: the mc design with that seed; else the grid)
 std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int samples, std::uint64_t seed);
 
 struct Sweep {
@@ -46,6 +62,8 @@ struct Sweep {
 // Parses the scene once per variation with the overrides applied (each is
 // validated like a scene file) and concatenates the rods.
 Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
+                 const Design& design);
+Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
                  int samples, std::uint64_t seed);
 // The same for given variations: parameter keys and one row of values per
 // variation (a sweep file's /sweep/parameters, to continue it).
@@ -56,17 +74,23 @@ Sweep make_sweep(const std::string& text, const std::string& source, std::vector
 Sweep sweep_of_checkpoint(const h5::Checkpoint& c, const std::string& path);
 
 // Period and damping ratio of a decaying oscillation u(t) (samples in time
-// order): maxima and minima refined by a parabola through three samples;
-// period = mean spacing of the maxima; damping ratio from the decay of the
-// peak-to-peak amplitude P_k = u(max_k) − u(following min) (independent of
-// the equilibrium offset): δ = ln(P_first/P_last)/(cycles), ζ = δ/√(4π² + δ²).
-// Cycles whose amplitude has fallen below 1 % of the first are not used.
-// NaN when fewer than two maxima are found.
+// order), from its small-amplitude part, as a free-vibration test reads
+// them: maxima and minima refined by a parabola through three samples; the
+// peak-to-peak amplitudes P_k = u(max_k) − u(following min) (independent of
+// the equilibrium offset); the cycles from the first with P_k ≤ max(¼ P_0,
+// small) down to 1 % of P_0 (large first swings of a cantilever are
+// geometrically nonlinear: they lengthen the period and change the decay);
+// least-squares lines through t_k and ln P_k against k give the period and
+// the logarithmic decrement δ, ζ = δ/√(4π² + δ²), each with its standard
+// error from the fit's residuals. NaN (all four) with fewer than three peaks
+// in the window: a run too short to reach it. `small`: an amplitude that is
+// small in any case (the sweep summary passes 10 % of the rod's length).
 struct Oscillation {
   double period = 0, damping_ratio = 0;
-  int cycles = 0;
+  int cycles = 0;  // in the window
+  double period_err = 0, damping_ratio_err = 0;
 };
-Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<double>& u);
+Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<double>& u, double small = 0);
 
 // Per-variation summary columns (tip deflections, period, damping ratio,
 // energies, max strain) from the probe records of a run of the sweep.

@@ -1,0 +1,53 @@
+// include/manyrods/sampling.h — sample designs and distributions for Monte
+// Carlo sweeps (include/manyrods/sweep.h, docs/scenes.md "Sweeps").
+//
+// A design places N points in the unit cube [0, 1)^d, the same on every
+// machine for a given seed (no std:: distribution, whose results differ
+// between standard libraries); each varied parameter's distribution then
+// maps its coordinate u to a value by its inverse CDF.
+//
+// Designs:
+//   mc     independent uniform points (splitmix64, host/rng.h), drawn
+//          point by point, parameter by parameter
+//   lhs    Latin hypercube (McKay, Beckman & Conover 1979): along every
+//          axis each of the N strata [k/N, (k+1)/N) holds exactly one point,
+//          at a uniform position inside it; strata paired by independent
+//          random permutations
+//   sobol  the Sobol' sequence (Sobol' 1967) with the direction numbers of
+//          Joe & Kuo (2008, "new-joe-kuo-6.21201"; up to 21 parameters),
+//          in Gray-code order, scrambled by a random linear matrix scramble
+//          and digital shift (Matoušek 1998) drawn from the seed; every
+//          point is the centre of its 2⁻³² cell, so u is never 0 or 1.
+//          Without scrambling (seed ignored) it is the classic sequence
+//          (0.5, 0.5, …), (0.75, 0.25, …), … shifted by 2⁻³³.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace manyrods::scene {
+
+enum class DesignKind { grid, mc, lhs, sobol };
+
+struct Design {
+  DesignKind kind = DesignKind::grid;
+  int samples = 0;          // points (not for grid)
+  std::uint64_t seed = 0;
+  bool scramble = true;     // sobol only
+};
+
+// "grid", "mc", "lhs" or "sobol" (SceneError otherwise).
+DesignKind parse_design(const std::string& name);
+const char* design_name(DesignKind k);
+
+// [samples][dims] points in [0, 1) (grid: SceneError; it has no unit points).
+std::vector<std::vector<double>> unit_points(const Design& d, int dims);
+
+// Standard normal CDF Φ and its inverse Φ⁻¹ (p in (0, 1); to full double
+// precision: Acklam's rational approximation refined by one Halley step on
+// erfc).
+double normal_cdf(double x);
+double normal_quantile(double p);
+
+}  // namespace manyrods::scene
