@@ -416,23 +416,31 @@ void Writer::write_checkpoint(const Checkpoint& c) {
 }
 
 void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
-                         const std::vector<std::int32_t>& variation_first_rod) {
+                         const std::vector<std::int32_t>& variation_first_rod, const std::vector<Column>& statistics,
+                         const std::vector<std::string>& statistic_names) {
   Impl& w = *impl_;
   const Id g = checked(H5Gcreate2(w.file.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                        w.tmp, "cannot create /sweep");
   write_vector(g.get(), "variation_first_rod", H5T_NATIVE_INT32, variation_first_rod, w.tmp);
   auto group = [&](const char* name, const std::vector<Column>& cols) {
-    const Id sg = checked(H5Gcreate2(g.get(), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
-                          std::string("cannot create /sweep/") + name);
+    Id sg = checked(H5Gcreate2(g.get(), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                    std::string("cannot create /sweep/") + name);
     std::string order;
     for (const Column& c : cols) {
       write_vector(sg.get(), c.name.c_str(), H5T_NATIVE_DOUBLE, c.values, w.tmp);
       order += (order.empty() ? "" : "\n") + c.name;
     }
     attr_string(sg.get(), "order", order, w.tmp);
+    return sg;
   };
   group("parameters", parameters);
   group("summary", summary);
+  if (!statistics.empty()) {
+    const Id sg = group("statistics", statistics);
+    std::string names;
+    for (const std::string& n : statistic_names) names += (names.empty() ? "" : "\n") + n;
+    attr_string(sg.get(), "statistics", names, w.tmp);
+  }
 }
 
 std::int64_t Writer::frames() const { return impl_->frames; }
@@ -626,6 +634,16 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
     };
     cols("parameters", o.sweep_parameters);
     cols("summary", o.sweep_summary);
+    if (H5Lexists(f, "sweep/statistics", H5P_DEFAULT) > 0) {
+      cols("statistics", o.sweep_statistics);
+      const Id g = checked(H5Gopen2(f, "sweep/statistics", H5P_DEFAULT), H5Gclose, path, "missing /sweep/statistics");
+      std::stringstream ss(read_attr_string(g.get(), "statistics", path, "/sweep/statistics."));
+      for (std::string n; std::getline(ss, n);) o.sweep_statistic_names.push_back(n);
+      for (const Column& c : o.sweep_statistics)
+        if (c.values.size() != o.sweep_statistic_names.size())
+          fail(path, "/sweep/statistics/" + c.name + " has " + std::to_string(c.values.size()) +
+                         " values for " + std::to_string(o.sweep_statistic_names.size()) + " statistics");
+    }
   }
 }
 

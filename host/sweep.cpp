@@ -386,8 +386,9 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
   out.parameters = sweep_parameters(sw);
   opt.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>& rec) {
     out.summary = sweep_summary(sw, rec);
+    out.statistics = sweep_statistics(out.summary);
     std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
-    w.write_sweep(out.parameters, out.summary, first);
+    w.write_sweep(out.parameters, out.summary, first, out.statistics, sweep_statistic_names());
   };
   out.run = run_scene(sw.scene, opt, restart);
   return out;
@@ -449,13 +450,83 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
   return c;
 }
 
-void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
-               const std::vector<h5::Column>& summary) {
+const std::vector<std::string>& sweep_statistic_names() {
+  static const std::vector<std::string> names = {"n",      "nan",    "mean", "std", "mean_se", "mean_ci95_lo",
+                                                 "mean_ci95_hi", "min", "q05",  "q25", "median",  "q75",
+                                                 "q95",    "max"};
+  return names;
+}
+
+std::vector<h5::Column> sweep_statistics(const std::vector<h5::Column>& summary) {
+  std::vector<h5::Column> out;
+  for (const h5::Column& c : summary) {
+    std::vector<double> x;
+    for (double v : c.values)
+      if (std::isfinite(v)) x.push_back(v);
+    std::sort(x.begin(), x.end());
+    const double n = double(x.size());
+    double mean = kNaN, sd = kNaN, se = kNaN;
+    if (!x.empty()) {
+      mean = 0;
+      for (double v : x) mean += v;
+      mean /= n;
+    }
+    if (x.size() > 1) {
+      double ss = 0;
+      for (double v : x) ss += (v - mean) * (v - mean);
+      sd = std::sqrt(ss / (n - 1));
+      se = sd / std::sqrt(n);
+    }
+    auto quantile = [&](double p) {  // type 7: x[(n − 1)p], linear between neighbours
+      if (x.empty()) return kNaN;
+      const double h = (n - 1) * p;
+      const std::size_t lo = std::size_t(std::floor(h));
+      const std::size_t hi = std::min(lo + 1, x.size() - 1);
+      return x[lo] + (h - double(lo)) * (x[hi] - x[lo]);
+    };
+    constexpr double z = 1.959963984540054;  // Φ⁻¹(0.975)
+    out.push_back({c.name,
+                   {n, double(c.values.size()) - n, mean, sd, se, mean - z * se, mean + z * se, quantile(0),
+                    quantile(0.05), quantile(0.25), quantile(0.5), quantile(0.75), quantile(0.95), quantile(1)}});
+  }
+  return out;
+}
+
+namespace {
+// Writes path.tmp with `body`, then renames it to path (a reader never sees
+// half a file).
+template <class Body>
+void write_file(const std::string& path, Body&& body) {
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp);
     if (!out) throw SceneError(path + ": cannot write the CSV file");
     out.precision(10);
+    body(out);
+    if (!out) throw SceneError(path + ": error writing the CSV file");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw SceneError(path + ": cannot rename " + tmp + " to it: " + ec.message());
+}
+}  // namespace
+
+void write_statistics_csv(const std::string& path, const std::vector<h5::Column>& statistics) {
+  write_file(path, [&](std::ostream& out) {
+    out << "observable";
+    for (const std::string& n : sweep_statistic_names()) out << ',' << n;
+    out << '\n';
+    for (const h5::Column& c : statistics) {
+      out << c.name;
+      for (double v : c.values) out << ',' << v;
+      out << '\n';
+    }
+  });
+}
+
+void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
+               const std::vector<h5::Column>& summary) {
+  write_file(path, [&](std::ostream& out) {
     out << "variation";
     for (const auto* cols : {&parameters, &summary})
       for (const h5::Column& c : *cols) out << ',' << c.name;
@@ -467,11 +538,7 @@ void write_csv(const std::string& path, const std::vector<h5::Column>& parameter
         for (const h5::Column& c : *cols) out << ',' << c.values[i];
       out << '\n';
     }
-    if (!out) throw SceneError(path + ": error writing the CSV file");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw SceneError(path + ": cannot rename " + tmp + " to it: " + ec.message());
+  });
 }
 
 }  // namespace manyrods::scene

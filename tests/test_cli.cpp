@@ -445,6 +445,24 @@ TEST(Cli, SweepOfALogNormalModulusGivesANormalLogPeriod) {
   std::printf("ln T: mean %.5f (expected %.5f), std %.5f (expected 0.1)\n", mean, median_log_t, std::sqrt(var));
   EXPECT_NEAR(mean, median_log_t, 3 * 0.1 / std::sqrt(n));
   EXPECT_NEAR(std::sqrt(var), 0.1, 3 * 0.1 / std::sqrt(2 * (n - 1)));
+  // /sweep/statistics: the period's, from all 256 variations; its 95 %
+  // interval holds the median modulus' period times E[E^(−1/2)]/median^(−1/2)
+  // = exp(σ²/8) (the log-normal's moment), within the CI's own ±1.96 SE
+  ASSERT_EQ(o.sweep_statistic_names.front(), "n");
+  for (const h5::Column& c : o.sweep_statistics)
+    if (c.name == "period_s") {
+      auto stat = [&](const std::string& n) {
+        const auto& names = o.sweep_statistic_names;
+        return c.values[std::size_t(std::find(names.begin(), names.end(), n) - names.begin())];
+      };
+      EXPECT_EQ(stat("n"), 256);
+      EXPECT_EQ(stat("nan"), 0);
+      const double expected = std::exp(median_log_t + 0.2 * 0.2 / 8);
+      std::printf("period: mean %.5f s, 95 %% CI [%.5f, %.5f] s, expected %.5f s\n", stat("mean"),
+                  stat("mean_ci95_lo"), stat("mean_ci95_hi"), expected);
+      EXPECT_NEAR(stat("mean"), expected, 3 * stat("mean_se"));
+      EXPECT_NEAR(std::log(stat("median")), median_log_t, 3 * 1.2533 * 0.1 / std::sqrt(n));  // SE of a median
+    }
 }
 
 TEST(Cli, SweepRandomSamplingIsReproducible) {

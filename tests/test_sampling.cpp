@@ -148,3 +148,31 @@ TEST(Sampling, BadSpecsAndDesignsAreErrors) {
   EXPECT_THROW(parse_design("halton"), SceneError);
   EXPECT_THROW(unit_points({DesignKind::lhs, 0, 1}, 1), SceneError);
 }
+
+TEST(Sampling, SweepStatisticsOfASummaryColumn) {
+  // values with two NaN (variations without the observable): the statistics
+  // of the 8 finite ones, quantiles as numpy.quantile's default (type 7)
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const auto st = sweep_statistics({{"x", {3, 1, nan, 4, 1, 5, 9, nan, 2, 6}}});
+  ASSERT_EQ(st.size(), 1u);
+  const auto& names = sweep_statistic_names();
+  auto get = [&](const std::string& n) {
+    return st[0].values[std::size_t(std::find(names.begin(), names.end(), n) - names.begin())];
+  };
+  EXPECT_EQ(get("n"), 8);
+  EXPECT_EQ(get("nan"), 2);
+  EXPECT_DOUBLE_EQ(get("mean"), 3.875);
+  EXPECT_DOUBLE_EQ(get("std"), 2.748376143938713);
+  EXPECT_DOUBLE_EQ(get("mean_se"), 2.748376143938713 / std::sqrt(8.0));
+  EXPECT_DOUBLE_EQ(get("mean_ci95_hi") - get("mean"), 1.959963984540054 * get("mean_se"));
+  const double q[7] = {1, 1, 1.75, 3.5, 5.25, 7.95, 9};
+  const char* qn[7] = {"min", "q05", "q25", "median", "q75", "q95", "max"};
+  for (int i = 0; i < 7; ++i) EXPECT_DOUBLE_EQ(get(qn[i]), q[i]) << qn[i];
+  // one finite value: no spread; none: all NaN but the counts
+  const auto one = sweep_statistics({{"y", {nan, 2.5}}});
+  EXPECT_EQ(one[0].values[2], 2.5);
+  EXPECT_TRUE(std::isnan(one[0].values[3]));
+  const auto none = sweep_statistics({{"z", {nan}}});
+  EXPECT_EQ(none[0].values[0], 0);
+  EXPECT_TRUE(std::isnan(none[0].values[2]));
+}

@@ -218,8 +218,10 @@ int run_sweep(const Sweep& sw, RunOptions opt, std::string csv, const h5::Checkp
   const SweepRun sr = manyrods::scene::run_sweep(sw, std::move(opt), restart);
   const RunResult& r = sr.run;
   write_csv(csv, sr.parameters, sr.summary);
+  const std::string stats = fs::path(csv).replace_extension("").string() + "_statistics.csv";
+  write_statistics_csv(stats, sr.statistics);
   summary_line(r, output);
-  std::fprintf(stderr, "manyrods: sweep summary -> %s\n", csv.c_str());
+  std::fprintf(stderr, "manyrods: sweep summary -> %s, statistics -> %s\n", csv.c_str(), stats.c_str());
   return run_status(r);
 }
 

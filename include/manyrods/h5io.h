@@ -19,7 +19,7 @@
 //                         with contact contact_work [1, slots] (per slot);
 //                         and, for a sweep, probes/{time, tip, max_strain,
 //                         dissipated, dissipation_rate} (its records so far)
-//   /sweep                (manyrods sweep) parameters and summary columns
+//   /sweep                (manyrods sweep) parameters, summary and statistics columns
 // Root attributes: format = "manyrods", format_version = 1, precision,
 // integrator, dt. Frames are chunked one frame per chunk (at most 2^16 nodes)
 // and compressed (shuffle + deflate).
@@ -123,8 +123,11 @@ class Writer {
   // layout.directors); the pointer type must match layout.float32.
   void append_frame(double time, const void* positions, const void* directors, const EnergyRow& energy);
   void write_checkpoint(const Checkpoint& c);
+  // statistics: one column per summary column (its name), its values the
+  // statistics named by `statistic_names` (the group's attribute "statistics")
   void write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
-                   const std::vector<std::int32_t>& variation_first_rod);
+                   const std::vector<std::int32_t>& variation_first_rod, const std::vector<Column>& statistics = {},
+                   const std::vector<std::string>& statistic_names = {});
   std::int64_t frames() const;
   // Closes the file and renames <path>.tmp to <path>.
   void finish();
@@ -151,6 +154,10 @@ struct Output {
   double dt = 0;
   bool has_sweep = false;
   std::vector<Column> sweep_parameters, sweep_summary;
+  // /sweep/statistics (files from before it: empty): per summary column, the
+  // statistics named in sweep_statistic_names
+  std::vector<Column> sweep_statistics;
+  std::vector<std::string> sweep_statistic_names;
 };
 
 class Reader {

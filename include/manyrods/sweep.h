@@ -97,17 +97,35 @@ Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec);
 std::vector<h5::Column> sweep_parameters(const Sweep& sw);
 
+// Statistics of every summary column over the variations, from its finite
+// values (NaN marks a variation without that observable, or a failed one):
+//   n, nan               finite values, NaN values
+//   mean, std            sample mean, standard deviation (n − 1)
+//   mean_se              standard error of the mean, std/√n
+//   mean_ci95_lo, _hi    95 % confidence interval of the mean by the central
+//                        limit theorem, mean ∓ 1.959964 std/√n (Monte Carlo
+//                        samples; conservative for lhs and sobol designs)
+//   min, q05, q25, median, q75, q95, max
+//                        quantiles, linear between order statistics
+//                        (Hyndman & Fan's type 7, numpy's default)
+// One column per summary column (its name), its values in the order of
+// sweep_statistic_names(); NaN where n is too small for a statistic.
+const std::vector<std::string>& sweep_statistic_names();
+std::vector<h5::Column> sweep_statistics(const std::vector<h5::Column>& summary);
+
 // Runs the sweep (new, or continued from its file's checkpoint `restart`)
 // into opt.output with /sweep (parameters, summary, each variation's first
 // rod); opt.probes and opt.before_finish are set here.
 struct SweepRun {
   RunResult run;
-  std::vector<h5::Column> parameters, summary;
+  std::vector<h5::Column> parameters, summary, statistics;
 };
 SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart = nullptr);
 
 // variation, parameters..., summary... (written to path.tmp, then renamed).
 void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
                const std::vector<h5::Column>& summary);
+// observable, then one column per statistic (sweep_statistics), likewise.
+void write_statistics_csv(const std::string& path, const std::vector<h5::Column>& statistics);
 
 }  // namespace manyrods::scene

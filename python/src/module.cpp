@@ -736,6 +736,8 @@ NB_MODULE(_core, m) {
             nb::dict d;
             d["parameters"] = columns(r.parameters);
             d["summary"] = columns(r.summary);
+            d["statistics"] = columns(r.statistics);  // per observable, in the order of statistic_names
+            d["statistic_names"] = manyrods::scene::sweep_statistic_names();
             d["run"] = run_result(r.run);
             return d;
           },

@@ -6,6 +6,7 @@ command-line tool's path in MANYRODS_CLI; the scenes are in MANYRODS_SCENES.
 """
 
 import gc
+import math
 import os
 import re
 import signal
@@ -302,6 +303,23 @@ def test_sweep_returns_the_summary_as_arrays(tmp_path):
     np.testing.assert_allclose(tau, [0.02, 0.03, 0.04])
     assert all(len(v) == 3 for v in r["summary"].values())
     assert (tmp_path / "s.h5").exists()
+    # statistics per summary column, named
+    names = r["statistic_names"]
+    st = dict(zip(names, r["statistics"]["tip_deflection_initial_m"]))
+    assert st["n"] == 3 and st["nan"] == 0
+    assert st["mean"] == pytest.approx(np.mean(r["summary"]["tip_deflection_initial_m"]), rel=1e-12)
+
+
+def test_sweep_with_a_design_and_a_distribution(tmp_path):
+    s = manyrods.load_scene(CANTILEVER)
+    r = s.sweep(["rods.0.material.youngs_modulus=lognormal:1e6:0.2"], str(tmp_path / "d.h5"), samples=8, seed=3,
+                design="lhs", duration=0.05)
+    e = np.sort(r["parameters"]["rods.0.material.youngs_modulus"])
+    # a Latin hypercube: one sample in each eighth of the distribution
+    strata = np.floor(8 * 0.5 * (1 + np.vectorize(math.erf)(np.log(e / 1e6) / 0.2 / math.sqrt(2))))
+    assert list(strata) == list(range(8))
+    with pytest.raises(ValueError, match="design"):
+        s.sweep(["rods.0.material.youngs_modulus=1e6:2e6"], str(tmp_path / "e.h5"), samples=4, design="halton")
 
 
 def test_save_writes_a_file_the_tool_can_continue(tmp_path):
