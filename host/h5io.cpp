@@ -634,6 +634,10 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
     };
     cols("parameters", o.sweep_parameters);
     cols("summary", o.sweep_summary);
+    {
+      const Id g = checked(H5Gopen2(f, "sweep", H5P_DEFAULT), H5Gclose, path, "missing group /sweep");
+      o.sweep_first_rod = read_vector<std::int32_t>(g.get(), "variation_first_rod", H5T_NATIVE_INT32, path);
+    }
     if (H5Lexists(f, "sweep/statistics", H5P_DEFAULT) > 0) {
       cols("statistics", o.sweep_statistics);
       const Id g = checked(H5Gopen2(f, "sweep/statistics", H5P_DEFAULT), H5Gclose, path, "missing /sweep/statistics");

@@ -127,21 +127,53 @@ void write_plot_data(const h5::Reader& rd, const std::vector<int>& shown, const 
   }
 }
 
-void tips_and_energy_script(std::ostream& gp, const std::string& dir, const std::vector<int>& shown,
-                            const std::string& tips, const std::string& energy) {
-  gp << "set terminal pngcairo size 1200,900\nset grid\nset key outside right\n";
-  gp << "set output " << quote(dir + "/tips.png") << "\nset multiplot layout 3,1 title 'tip trajectories'\n";
+// A parameter's short name: the last part of its key path ("tau_extension"
+// for rods.0.damping.tau_extension; "initial_tip_force.0" keeps its index).
+std::string short_key(const std::string& key) {
+  std::size_t dot = key.rfind('.');
+  if (dot != std::string::npos && dot + 1 < key.size() && std::isdigit(static_cast<unsigned char>(key[dot + 1])))
+    dot = key.rfind('.', dot - 1);
+  return dot == std::string::npos ? key : key.substr(dot + 1);
+}
+
+// The legend of rod r: "rod r", or in a sweep its variation's parameter values.
+std::string rod_label(const h5::Output& o, int r) {
+  if (!o.has_sweep || o.sweep_first_rod.empty()) return "rod " + std::to_string(r);
+  std::size_t v = 0;
+  while (v + 1 < o.sweep_first_rod.size() && o.sweep_first_rod[v + 1] <= r) ++v;
+  std::ostringstream l;
+  l.precision(4);
+  l << "variation " << v << ":";
+  for (const h5::Column& c : o.sweep_parameters) l << ' ' << short_key(c.name) << '=' << c.values[v];
+  return l.str();
+}
+
+// What a sweep varied, for titles: "tau_extension, youngs_modulus (64 variations)".
+std::string varied(const h5::Output& o) {
+  std::string t;
+  for (const h5::Column& c : o.sweep_parameters) t += (t.empty() ? "" : ", ") + short_key(c.name);
+  return t + " (" + std::to_string(o.sweep_parameters[0].values.size()) + " variations)";
+}
+
+// noenhanced: names such as damping_ratio are printed as they are, not as
+// gnuplot's subscripts
+void tips_and_energy_script(std::ostream& gp, const h5::Output& o, const std::string& dir,
+                            const std::vector<int>& shown, const std::string& tips, const std::string& energy) {
+  gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\nset key outside right\n";
+  const std::string what = o.has_sweep && !o.sweep_parameters.empty() ? ": sweep of " + varied(o) : "";
+  gp << "set output " << quote(dir + "/tips.png") << "\nset multiplot layout 3,1 title " << quote("tip trajectories" + what)
+     << "\n";
   const char* axis[3] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a) {
     gp << "set xlabel 'time (s)'\nset ylabel 'tip " << axis[a] << " (m)'\nplot ";
     for (std::size_t i = 0; i < shown.size(); ++i)
-      gp << (i ? ", " : "") << quote(tips) << " using 1:" << 2 + 3 * i + a << " with lines title 'rod "
-         << shown[i] << "'";
+      gp << (i ? ", " : "") << quote(tips) << " using 1:" << 2 + 3 * i + a << " with lines title "
+         << quote(rod_label(o, shown[i]));
     gp << "\n";
   }
   gp << "unset multiplot\n";
   gp << "set output " << quote(dir + "/energy.png")
-     << "\nset title 'energy budget (dissipated = integral of 2 D_v dt)'\n"
+     << "\nset title " << quote("energy budget (dissipated = integral of 2 D_v dt)" + what) << "\n"
      << "set xlabel 'time (s)'\nset ylabel 'energy (J)'\nplot " << quote(energy)
      << " using 1:2 with lines title 'kinetic', '' using 1:3 with lines title 'elastic', '' using 1:4 with "
         "lines title "
@@ -150,24 +182,84 @@ void tips_and_energy_script(std::ostream& gp, const std::string& dir, const std:
         "'' using 1:7 with lines dt 2 lw 2 title 'mechanical + dissipated'\n";
 }
 
-// A sweep's summary columns against its first varied parameter: sweep.dat
-// and one PNG per column (appended to `made`).
+// A sweep's plots (appended to `made`): each summary column against the
+// first varied parameter (points; the fitted period and damping ratio with
+// their standard errors as error bars), its histogram, and, for 16
+// variations or more, the running mean with its 95 % interval against the
+// number of variations (in the order they were drawn: the convergence of
+// a sampled design). Data in sweep.dat (first parameter, then the columns).
 void sweep_script(std::ostream& gp, const h5::Output& o, const std::string& dir, std::vector<std::string>& made) {
   const std::string sweep = dir + "/sweep.dat";
   std::ofstream s(sweep);
   s.precision(12);
   const std::size_t n = o.sweep_parameters[0].values.size();
   for (std::size_t i = 0; i < n; ++i) {
-    s << o.sweep_parameters[0].values[i];
+    s << i << ' ' << o.sweep_parameters[0].values[i];
     for (const h5::Column& c : o.sweep_summary) s << ' ' << (std::isfinite(c.values[i]) ? c.values[i] : NAN);
     s << '\n';
   }
+  const std::string x = o.sweep_parameters[0].name, what = "sweep of " + varied(o);
+  auto column = [&](const std::string& name) -> int {  // gnuplot column of a summary column, 0 if none
+    for (std::size_t c = 0; c < o.sweep_summary.size(); ++c)
+      if (o.sweep_summary[c].name == name) return int(c) + 3;
+    return 0;
+  };
+  gp << "set key inside top right\n";
   for (std::size_t c = 0; c < o.sweep_summary.size(); ++c) {
-    const std::string png = dir + "/sweep_" + o.sweep_summary[c].name + ".png";
-    gp << "set output " << quote(png) << "\nset title 'sweep'\nset xlabel " << quote(o.sweep_parameters[0].name)
-       << "\nset ylabel " << quote(o.sweep_summary[c].name) << "\nplot " << quote(sweep) << " using 1:" << c + 2
-       << " with linespoints title " << quote(o.sweep_summary[c].name) << "\n";
+    const std::string& y = o.sweep_summary[c].name;
+    if (y.size() > 4 && y.compare(y.size() - 4, 4, "_err") == 0) continue;  // error bars of the next plot
+    if (y.size() > 6 && y.compare(y.size() - 6, 6, "_err_s") == 0) continue;
+    const int col = int(c) + 3;
+    const int err = column(y == "period_s" ? "period_err_s" : y + "_err");
+    const std::string png = dir + "/sweep_" + y + ".png";
+    gp << "set output " << quote(png) << "\nset title " << quote(y + " against " + short_key(x) + " — " + what)
+       << "\nset xlabel " << quote(x) << "\nset ylabel " << quote(y) << "\nplot " << quote(sweep) << " using 2:"
+       << col;
+    if (err)
+      gp << ":" << err << " with yerrorbars pt 7 ps 0.6 title " << quote(y + " ± standard error of the fit") << "\n";
+    else
+      gp << " with points pt 7 ps 0.6 title " << quote(y) << "\n";
     made.push_back(png);
+    // histogram: 20 bins over the finite values' range
+    const auto& v = o.sweep_summary[c].values;
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (double a : v)
+      if (std::isfinite(a)) lo = std::min(lo, a), hi = std::max(hi, a);
+    if (!(hi > lo)) continue;
+    const double w = (hi - lo) / 20;
+    std::vector<int> count(20, 0);
+    for (double a : v)
+      if (std::isfinite(a)) ++count[std::min(19, int((a - lo) / w))];
+    const std::string hist_dat = dir + "/sweep_" + y + "_histogram.dat", hist = dir + "/sweep_" + y + "_histogram.png";
+    std::ofstream hd(hist_dat);
+    hd.precision(12);
+    for (int b = 0; b < 20; ++b) hd << lo + (b + 0.5) * w << ' ' << count[std::size_t(b)] << '\n';
+    gp << "set output " << quote(hist) << "\nset title " << quote("histogram of " + y + " — " + what)
+       << "\nset xlabel " << quote(y) << "\nset ylabel 'variations'\nset style fill solid 0.5\nset boxwidth " << w
+       << "\nplot " << quote(hist_dat) << " using 1:2 with boxes title "
+       << quote(y + " (" + std::to_string(n) + " variations, NaN left out)") << "\nunset style\nset boxwidth\n";
+    made.push_back(hist);
+    if (n < 16) continue;
+    // running mean and its 95 % interval (CLT) over the first k variations
+    const std::string conv_dat = dir + "/sweep_" + y + "_convergence.dat";
+    std::ofstream cd(conv_dat);
+    cd.precision(12);
+    double sum = 0, sum2 = 0;
+    int k = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!std::isfinite(v[i])) continue;
+      ++k, sum += v[i], sum2 += v[i] * v[i];
+      if (k < 2) continue;
+      const double mean = sum / k, sd = std::sqrt(std::max(0.0, (sum2 - k * mean * mean) / (k - 1)));
+      cd << i + 1 << ' ' << mean << ' ' << mean - 1.959964 * sd / std::sqrt(k) << ' '
+         << mean + 1.959964 * sd / std::sqrt(k) << '\n';
+    }
+    const std::string conv = dir + "/sweep_" + y + "_convergence.png";
+    gp << "set output " << quote(conv) << "\nset title " << quote("running mean of " + y + " — " + what)
+       << "\nset xlabel 'variations'\nset ylabel " << quote(y) << "\nset logscale x\nplot " << quote(conv_dat)
+       << " using 1:3:4 with filledcurves fs transparent solid 0.25 title '95 % interval of the mean (CLT)', '' "
+          "using 1:2 with lines lw 2 title 'mean'\nunset logscale x\n";
+    made.push_back(conv);
   }
 }
 
@@ -201,7 +293,7 @@ int plot(const std::string& in, std::string dir) {
   const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
   write_plot_data(rd, shown, tips, energy);
   std::ostringstream gp;
-  tips_and_energy_script(gp, dir, shown, tips, energy);
+  tips_and_energy_script(gp, o, dir, shown, tips, energy);
   std::vector<std::string> made = {dir + "/tips.png", dir + "/energy.png"};
   if (o.has_sweep && !o.sweep_parameters.empty()) sweep_script(gp, o, dir, made);
   return run_gnuplot(dir, gp.str(), made);

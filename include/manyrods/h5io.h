@@ -158,6 +158,7 @@ struct Output {
   // statistics named in sweep_statistic_names
   std::vector<Column> sweep_statistics;
   std::vector<std::string> sweep_statistic_names;
+  std::vector<std::int32_t> sweep_first_rod;  // [variations] /sweep/variation_first_rod
 };
 
 class Reader {
