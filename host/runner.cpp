@@ -159,7 +159,7 @@ class SceneRun {
   // About what the output will hold: the frames from here to the end
   // (positions, directors, energy rows) and the checkpoint (the state).
   std::uint64_t output_bytes() const {
-    const std::uint64_t frames = std::uint64_t((total_ - b_.state.steps) / per_frame_ + 2);
+    const std::uint64_t frames = opt_.all_frames ? std::uint64_t((total_ - b_.state.steps) / per_frame_ + 2) : 2;
     const std::uint64_t nodes = std::uint64_t(b_.element_count() + b_.rod_count());
     const std::uint64_t per_frame =
         sizeof(T) * (3 * nodes + (s_.sim.output_directors ? 9 * std::uint64_t(b_.element_count()) : 0)) + 8 * 8;
@@ -304,7 +304,9 @@ class SceneRun {
       last_rate_ = e.dissipation;
       if (!opt_.probes.empty()) sample_probes(false);
       check_validity(e);
-      if (step % per_frame_ == 0 || step == total_) write_frame(*w, e);
+      // (the frame points stay sample points without all_frames: the probes'
+      // samples, and so a sweep's summary, do not depend on it)
+      if ((opt_.all_frames && step % per_frame_ == 0) || step == total_) write_frame(*w, e);
       const auto now = clock::now();
       if (parts_ && step < total_ && std::chrono::duration<double>(now - part_start_).count() >= opt_.checkpoint_every)
         roll(w);

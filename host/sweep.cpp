@@ -45,13 +45,17 @@ struct Extremum {
   double t, u;
 };
 
-// Vertex of the parabola through (i−1, i, i+1).
+// Vertex of the parabola through samples i−1, i, i+1 (their times need not
+// be evenly spaced: a sweep samples every 64 steps and at every frame),
+// from Newton's divided differences: u(t) = u₀ + d₀₁ (t − t₀) + a (t − t₀)(t − t₁).
 Extremum refine(const std::vector<double>& t, const std::vector<double>& u, std::size_t i) {
-  const double h = 0.5 * (t[i + 1] - t[i - 1]);
-  const double c2 = 0.5 * (u[i - 1] - 2 * u[i] + u[i + 1]), c1 = 0.5 * (u[i + 1] - u[i - 1]);
-  if (c2 == 0) return {t[i], u[i]};
-  const double off = std::clamp(-c1 / (2 * c2), -1.0, 1.0);
-  return {t[i] + off * h, u[i] - c1 * c1 / (4 * c2)};
+  if (i == 0 || i + 1 >= u.size()) return {t[i], u[i]};
+  const double t0 = t[i - 1], t1 = t[i], t2 = t[i + 1];
+  const double d01 = (u[i] - u[i - 1]) / (t1 - t0), d12 = (u[i + 1] - u[i]) / (t2 - t1);
+  const double a = (d12 - d01) / (t2 - t0);
+  if (a == 0) return {t1, u[i]};
+  const double tv = std::clamp(0.5 * (t0 + t1) - d01 / (2 * a), t0, t2);
+  return {tv, u[i - 1] + d01 * (tv - t0) + a * (tv - t0) * (tv - t1)};
 }
 
 }  // namespace

@@ -328,6 +328,7 @@ struct Options {
   double checkpoint_every = 300;
   std::vector<std::string> vary;
   std::string design;  // sweep: grid, mc, lhs, sobol (empty: grid, or mc with --samples)
+  std::string frames = "ends";  // sweep: ends or all
   // bench
   std::int64_t bench_steps = 0, bench_warmup = 0;
   bool stiff_solve_float = false;
@@ -405,6 +406,10 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
   sweep->add_option("--duration", o.duration, "override [simulation] duration (s)")->check(positive);
   sweep->add_option("--until", o.until, "stop at this simulated time (s); the file keeps a checkpoint to continue with run --restart")
       ->check(non_negative);
+  sweep->add_option("--frames", o.frames,
+                    "ends (default): frames of the first and last step only; all: every output_interval (large: "
+                    "every variation's every node)")
+      ->check(CLI::IsMember({"ends", "all"}));
   add_force_dt_flag(sweep, o);
   add_progress_flags(sweep, o);
   return sweep;
@@ -487,6 +492,7 @@ int command_run(const Options& o) {
       const Sweep sw = sweep_of_checkpoint(c, o.restart);
       RunOptions so = opt;
       so.checkpoint_every = 0;  // (sweeps are written in one piece)
+      so.all_frames = false;    // (a sweep's frames: its ends)
       return run_sweep(sw, so, o.csv, &c);
     }
     if (!o.csv.empty()) {
@@ -540,6 +546,7 @@ int command_sweep(const Options& o) {
   sw.scene.sim.force_dt = o.force_dt;
   RunOptions opt = run_options(o);
   opt.checkpoint_every = 0;  // sweeps are written in one piece (a checkpoint at the end, Ctrl-C, --until)
+  opt.all_frames = o.frames == "all";
   return run_sweep(sw, opt, o.csv, nullptr);
 }
 

@@ -59,6 +59,9 @@ struct RunOptions {
   double duration = -1;   // overrides [simulation] duration when > 0
   bool progress = false;  // progress line on stderr
   bool profile = false;   // time each stage of the step (RunResult::stages)
+  // false: frames of the first and last step only (a sweep's default: its
+  // summary comes from the probes, sampled every 64 steps, not the frames)
+  bool all_frames = true;
   const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
   std::vector<Probe> probes;
   // Called with each new kind of validity violation when it is first seen

@@ -721,7 +721,10 @@ NB_MODULE(_core, m) {
       .def(
           "sweep",
           [](const Scene& s, const std::vector<std::string>& vary, const std::string& output, int samples,
-             std::uint64_t seed, int threads, std::optional<double> duration, std::optional<std::string> design) {
+             std::uint64_t seed, int threads, std::optional<double> duration, std::optional<std::string> design,
+             const std::string& frames) {
+            if (frames != "ends" && frames != "all")
+              throw manyrods::scene::SceneError("sweep: frames = '" + frames + "': expected 'ends' or 'all'");
             std::vector<manyrods::scene::Vary> vs;
             for (const std::string& v : vary) vs.push_back(manyrods::scene::parse_vary(v));
             using manyrods::scene::DesignKind;
@@ -731,7 +734,9 @@ NB_MODULE(_core, m) {
             {
               nb::gil_scoped_release release;
               const manyrods::scene::Sweep sw = manyrods::scene::make_sweep(s.text, s.source, vs, des);
-              r = manyrods::scene::run_sweep(sw, run_options(output, threads, duration, 0, false));
+              manyrods::scene::RunOptions opt = run_options(output, threads, duration, 0, false);
+              opt.all_frames = frames == "all";
+              r = manyrods::scene::run_sweep(sw, opt);
             }
             nb::dict d;
             d["parameters"] = columns(r.parameters);
@@ -742,11 +747,11 @@ NB_MODULE(_core, m) {
             return d;
           },
           "vary"_a, "output"_a, nb::kw_only(), "samples"_a = 0, "seed"_a = 0, "threads"_a = 1,
-          "duration"_a = nb::none(), "design"_a = nb::none(),
+          "duration"_a = nb::none(), "design"_a = nb::none(), "frames"_a = "ends",
           "A parameter sweep (`manyrods sweep`): vary = ['rods.0.damping.tau_extension=0:0.05:5', "
           "'rods.0.material.youngs_modulus=lognormal:1e6:0.2', …], design = 'grid' | 'mc' | 'lhs' | 'sobol' "
-          "(default: grid, or mc with samples); returns the parameters and the per-variation summary as NumPy "
-          "arrays");
+          "(default: grid, or mc with samples), frames = 'ends' (first and last step) or 'all'; returns the "
+          "parameters, the per-variation summary and its statistics as NumPy arrays");
 
   m.def("load_scene", &manyrods::scene::load_scene, "path"_a, "Read and validate a TOML scene file");
   m.def(
