@@ -457,6 +457,50 @@ void Writer::finish() {
 
 // ---- reading -----------------------------------------------------------------
 
+void write_sweep_index(const std::string& path, const SweepIndex& x) {
+  const std::string tmp = path + ".tmp";
+  {
+    const Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+    check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_LATEST), tmp, "cannot set the file format");
+    const Id f = checked(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose, tmp,
+                         "cannot create the sweep index (directory missing or not writable?)");
+    attr_string(f.get(), "format", "manyrods-sweep-index", tmp);
+    attr_scalar<std::int64_t>(f.get(), "format_version", kFormatVersion, H5T_NATIVE_INT64, tmp);
+    attr_scalar<double>(f.get(), "dt", x.dt, H5T_NATIVE_DOUBLE, tmp);
+    {
+      const Id g = checked(H5Gcreate2(f.get(), "scene", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, tmp,
+                           "cannot create /scene");
+      attr_string(g.get(), "text", x.scene_text, tmp);
+      attr_string(g.get(), "source", x.scene_source, tmp);
+    }
+    const Id g = checked(H5Gcreate2(f.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, tmp,
+                         "cannot create /sweep");
+    auto group = [&](const char* name, const std::vector<Column>& cols) {
+      Id sg = checked(H5Gcreate2(g.get(), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, tmp,
+                      std::string("cannot create /sweep/") + name);
+      std::string order;
+      for (const Column& c : cols) {
+        write_vector(sg.get(), c.name.c_str(), H5T_NATIVE_DOUBLE, c.values, tmp);
+        order += (order.empty() ? "" : "\n") + c.name;
+      }
+      attr_string(sg.get(), "order", order, tmp);
+      return sg;
+    };
+    group("parameters", x.parameters);
+    group("summary", x.summary);
+    const Id st = group("statistics", x.statistics);
+    std::string names, files;
+    for (const std::string& n : x.statistic_names) names += (names.empty() ? "" : "\n") + n;
+    attr_string(st.get(), "statistics", names, tmp);
+    for (const std::string& n : x.chunk_files) files += (files.empty() ? "" : "\n") + n;
+    attr_string(g.get(), "chunk_files", files, tmp);
+    write_vector(g.get(), "chunk_first_variation", H5T_NATIVE_INT64, x.chunk_first, tmp);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) fail(path, "cannot rename " + tmp + " to it: " + ec.message());
+}
+
 Checkpoint read_checkpoint(const std::string& path) {
   const Id f = open_manyrods(path);
   if (H5Lexists(f.get(), "checkpoint", H5P_DEFAULT) <= 0)

@@ -545,4 +545,109 @@ void write_csv(const std::string& path, const std::vector<h5::Column>& parameter
   });
 }
 
+namespace {
+// (with the initial state, as the run resolves it: stable_dt reads the
+// state, e.g. a static deflection under initial loads)
+template <class T>
+double auto_dt(const Scene& s) {
+  return scene_dt(s, build_scene_batch<T>(s, true));
+}
+double sweep_dt(const Scene& s) {
+  return s.sim.precision == Precision::float32 ? auto_dt<float>(s) : auto_dt<double>(s);
+}
+}  // namespace
+
+ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& source, std::vector<std::string> names,
+                               std::vector<std::vector<double>> points, int chunk, RunOptions opt,
+                               const std::function<void(int, int, const RunResult*)>& on_chunk) {
+  namespace fs = std::filesystem;
+  if (chunk < 1) throw SceneError("sweep: --chunk must be >= 1");
+  if (opt.until >= 0) throw SceneError("sweep: --until does not apply to a chunked sweep (Ctrl-C stops it; run it again to continue)");
+  ChunkedSweep out;
+  const std::size_t n = points.size();
+  out.chunks = int((n + std::size_t(chunk) - 1) / std::size_t(chunk));
+  auto chunk_points = [&](int k) {
+    const std::size_t a = std::size_t(k) * std::size_t(chunk), b = std::min(n, a + std::size_t(chunk));
+    return std::vector<std::vector<double>>(points.begin() + std::ptrdiff_t(a), points.begin() + std::ptrdiff_t(b));
+  };
+  const fs::path dir = opt.output + ".chunks";
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw SceneError(opt.output + ": cannot create " + dir.string() + ": " + ec.message());
+  // one dt for all chunks: the scene's, or the smallest auto step over them
+  const Scene base = parse_scene(text, source);
+  double dt = 0;
+  if (base.sim.dt_auto) {
+    dt = HUGE_VAL;
+    for (int k = 0; k < out.chunks; ++k) dt = std::min(dt, sweep_dt(make_sweep(text, source, names, chunk_points(k)).scene));
+  }
+  std::vector<h5::Column> parameters, summary;
+  h5::SweepIndex index;
+  index.chunk_first.push_back(0);
+  const RunOptions base_opt = opt;
+  for (int k = 0; k < out.chunks; ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "chunk-%05d.h5", k);
+    const std::string file = (dir / name).string();
+    out.chunk_files.push_back(file);
+    index.chunk_files.push_back((fs::path(dir.filename()) / name).string());
+    const std::vector<std::vector<double>> pts = chunk_points(k);
+    index.chunk_first.push_back(index.chunk_first.back() + std::int64_t(pts.size()));
+    std::vector<h5::Column> par, sum;
+    if (fs::exists(file, ec)) {  // finished before: read back
+      const h5::Reader rd(file);
+      const h5::Output& o = rd.output();
+      bool same = o.has_sweep && o.sweep_parameters.size() == names.size();
+      for (std::size_t d = 0; same && d < names.size(); ++d) {
+        same = o.sweep_parameters[d].name == names[d] && o.sweep_parameters[d].values.size() == pts.size();
+        for (std::size_t i = 0; same && i < pts.size(); ++i) same = o.sweep_parameters[d].values[i] == pts[i][d];
+      }
+      if (!same)
+        throw SceneError(file + ": holds other variations than chunk " + std::to_string(k) +
+                         " of this sweep (another sweep's chunks? remove " + dir.string() + " to start anew)");
+      par = o.sweep_parameters;
+      sum = o.sweep_summary;
+      ++out.reused;
+      if (on_chunk) on_chunk(k, out.chunks, nullptr);
+    } else {
+      Sweep sw = make_sweep(text, source, names, pts);
+      if (base.sim.dt_auto) {
+        sw.scene.sim.dt_auto = false;
+        sw.scene.sim.dt = dt;
+      }
+      RunOptions o = base_opt;
+      o.output = file + ".part";
+      SweepRun r = run_sweep(sw, o);
+      if (on_chunk) on_chunk(k, out.chunks, &r.run);
+      if (r.run.interrupted) return out;
+      fs::rename(o.output, file, ec);
+      if (ec) throw SceneError(file + ": cannot rename " + o.output + " to it: " + ec.message());
+      par = std::move(r.parameters);
+      sum = std::move(r.summary);
+    }
+    if (k == 0) {
+      parameters = par;
+      summary = sum;
+    } else {
+      for (std::size_t c = 0; c < par.size(); ++c)
+        parameters[c].values.insert(parameters[c].values.end(), par[c].values.begin(), par[c].values.end());
+      for (std::size_t c = 0; c < sum.size(); ++c)
+        summary[c].values.insert(summary[c].values.end(), sum[c].values.begin(), sum[c].values.end());
+    }
+  }
+  out.complete = true;
+  out.result.parameters = std::move(parameters);
+  out.result.summary = std::move(summary);
+  out.result.statistics = sweep_statistics(out.result.summary);
+  index.parameters = out.result.parameters;
+  index.summary = out.result.summary;
+  index.statistics = out.result.statistics;
+  index.statistic_names = sweep_statistic_names();
+  index.scene_text = text;
+  index.scene_source = source;
+  index.dt = base.sim.dt_auto ? dt : base.sim.dt;
+  h5::write_sweep_index(base_opt.output, index);
+  return out;
+}
+
 }  // namespace manyrods::scene

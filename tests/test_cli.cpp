@@ -466,6 +466,44 @@ TEST(Cli, SweepOfALogNormalModulusGivesANormalLogPeriod) {
     }
 }
 
+TEST(Cli, ChunkedSweepEqualsTheSweepInOneBatchAndContinuesChunkByChunk) {
+  // 10 variations, chunks of 4 (4 + 4 + 2): every variation's summary and
+  // the statistics bit for bit as in one batch (dt = "auto" resolved over
+  // all chunks first); a missing chunk is run again, the others read back;
+  // another sweep's chunks are refused
+  const std::string scene = write_scene("chunked.toml", cantilever(6, 0.3, 0.05));
+  const std::string vary = " --vary rods.0.material.youngs_modulus=lognormal:1e6:0.2"
+                           " --vary rods.0.damping.tau_extension=uniform:0.02:0.08 --design lhs --samples 10 --seed 4";
+  const Result one = cli("sweep " + scene + vary + " -o " + path("one.h5") + " --csv " + path("one.csv"));
+  ASSERT_EQ(one.status, 0) << one.err;
+  const std::string out = path("chunked.h5");
+  const std::string cmd = "sweep " + scene + vary + " --chunk 4 -o " + out + " --csv " + path("chunked.csv");
+  const Result r = cli(cmd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_contains(r.err, "3 chunks (0 read back)");
+  auto text = [](const std::string& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  EXPECT_EQ(text(path("chunked.csv")), text(path("one.csv")));
+  EXPECT_EQ(text(path("chunked_statistics.csv")), text(path("one_statistics.csv")));
+  std::filesystem::remove(out + ".chunks/chunk-00001.h5");
+  const Result again = cli(cmd);
+  ASSERT_EQ(again.status, 0) << again.err;
+  expect_contains(again.err, "3 chunks (2 read back)");
+  EXPECT_EQ(text(path("chunked.csv")), text(path("one.csv")));
+  // the index: every variation's parameters and summary, the statistics, the chunk files
+  expect_contains(text(out), "manyrods-sweep-index");
+  // chunks of another sweep in the same place: an error that says so
+  const Result other = cli("sweep " + scene + " --vary rods.0.material.youngs_modulus=lognormal:1e6:0.3"
+                           " --vary rods.0.damping.tau_extension=uniform:0.02:0.08 --design lhs --samples 10 --seed 4"
+                           " --chunk 4 -o " + out);
+  EXPECT_EQ(other.status, 2);
+  expect_contains(other.err, "holds other variations than chunk 0");
+}
+
 TEST(Cli, SweepRandomSamplingIsReproducible) {
   const std::string scene = write_scene("sample.toml", cantilever(4, 0.05, 0.01));
   auto values = [&](int seed) {

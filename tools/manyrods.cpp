@@ -329,6 +329,7 @@ struct Options {
   std::vector<std::string> vary;
   std::string design;  // sweep: grid, mc, lhs, sobol (empty: grid, or mc with --samples)
   std::string frames = "ends";  // sweep: ends or all
+  int chunk = 0;                 // sweep: variations per batch (0: all in one)
   // bench
   std::int64_t bench_steps = 0, bench_warmup = 0;
   bool stiff_solve_float = false;
@@ -410,6 +411,10 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
                     "ends (default): frames of the first and last step only; all: every output_interval (large: "
                     "every variation's every node)")
       ->check(CLI::IsMember({"ends", "all"}));
+  sweep->add_option("--chunk", o.chunk,
+                    "run the variations this many at a time, each chunk a file in <output>.chunks/ (the output "
+                    "becomes their index; the same command continues an interrupted sweep)")
+      ->check(positive);
   add_force_dt_flag(sweep, o);
   add_progress_flags(sweep, o);
   return sweep;
@@ -533,6 +538,37 @@ int command_run(const Options& o) {
   return run_status(r);
 }
 
+// A sweep `--chunk` variations at a time (scene::run_sweep_chunked): a line
+// per chunk, then the index file and the CSVs; stopped by Ctrl-C, the same
+// command continues it.
+int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& design, const RunOptions& opt) {
+  if (o.force_dt) throw SceneError("--force-dt does not apply to a chunked sweep (--chunk)");
+  std::vector<std::string> names;
+  for (const Vary& v : vs) names.push_back(v.key);
+  const std::vector<std::vector<double>> points = sweep_points(vs, design);
+  std::fprintf(stderr, "manyrods sweep: %zu variations in chunks of %d -> %s.chunks/\n", points.size(), o.chunk,
+               opt.output.c_str());
+  const ChunkedSweep cs = run_sweep_chunked(
+      read_file(o.scene_path), o.scene_path, names, points, o.chunk, opt, [](int k, int n, const RunResult* r) {
+        if (r)
+          std::fprintf(stderr, "manyrods: chunk %d/%d: %s at t = %.6g s, %.3g element-steps/s, %.3g s wall\n", k + 1,
+                       n, r->interrupted ? "stopped" : "done", r->time, r->element_steps_per_s, r->wall_s);
+        else
+          std::fprintf(stderr, "manyrods: chunk %d/%d: done before (read back)\n", k + 1, n);
+      });
+  if (!cs.complete) {
+    std::fprintf(stderr, "manyrods: stopped; the finished chunks are kept: run the same command to continue\n");
+    return 130;
+  }
+  const std::string csv = o.csv.empty() ? fs::path(opt.output).replace_extension(".csv").string() : o.csv;
+  write_csv(csv, cs.result.parameters, cs.result.summary);
+  const std::string stats = fs::path(csv).replace_extension("").string() + "_statistics.csv";
+  write_statistics_csv(stats, cs.result.statistics);
+  std::fprintf(stderr, "manyrods: %d chunks (%d read back) -> index %s, summary %s, statistics %s\n", cs.chunks,
+               cs.reused, opt.output.c_str(), csv.c_str(), stats.c_str());
+  return 0;
+}
+
 int command_sweep(const Options& o) {
   std::vector<Vary> vs;
   for (const std::string& v : o.vary) vs.push_back(parse_vary(v));
@@ -542,11 +578,12 @@ int command_sweep(const Options& o) {
     throw SceneError("--design grid runs every combination of the --vary lists; --samples applies to mc, lhs, sobol");
   if (design.kind != DesignKind::grid && o.samples < 1)
     throw SceneError(std::string("--design ") + design_name(design.kind) + " needs --samples N");
-  Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, design);
-  sw.scene.sim.force_dt = o.force_dt;
   RunOptions opt = run_options(o);
   opt.checkpoint_every = 0;  // sweeps are written in one piece (a checkpoint at the end, Ctrl-C, --until)
   opt.all_frames = o.frames == "all";
+  if (o.chunk > 0) return chunked_sweep(o, vs, design, opt);
+  Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, design);
+  sw.scene.sim.force_dt = o.force_dt;
   return run_sweep(sw, opt, o.csv, nullptr);
 }
 

@@ -112,6 +112,21 @@ struct Checkpoint {
   std::vector<std::int32_t> sweep_first_rod;
 };
 
+// A chunked sweep's index file (format "manyrods-sweep-index"): the
+// variations' parameters and summary gathered from its chunk files, the
+// statistics, the chunk files' names (relative to the index's folder) and
+// each one's first variation, and the scene; written to <path>.tmp and
+// renamed. The frames stay in the chunk files.
+struct SweepIndex {
+  std::vector<Column> parameters, summary, statistics;
+  std::vector<std::string> statistic_names;
+  std::vector<std::string> chunk_files;
+  std::vector<std::int64_t> chunk_first;  // [chunks + 1]
+  std::string scene_text, scene_source;
+  double dt = 0;
+};
+void write_sweep_index(const std::string& path, const SweepIndex& index);
+
 class Writer {
  public:
   Writer(const std::string& path, const Layout& layout, const RunInfo& info);

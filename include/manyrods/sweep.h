@@ -21,6 +21,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -121,6 +122,31 @@ struct SweepRun {
   std::vector<h5::Column> parameters, summary, statistics;
 };
 SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart = nullptr);
+
+// A sweep too large for one batch, `chunk` variations at a time: chunk k
+// (variations [k·chunk, (k+1)·chunk)) runs as a sweep of its own into
+// <output>.chunks/chunk-<k>.h5 (written as chunk-<k>.h5.part, renamed when
+// it has reached its end), one after the other; a chunk file that exists is
+// not run again (it is read back: the same command continues an
+// interrupted sweep, chunk by chunk). dt = "auto" is resolved over all
+// variations first (the smallest chunk's stable step), so that every chunk
+// steps with the same dt as the sweep in one batch would, and each
+// variation's summary is the same, bit for bit. When all chunks are done,
+// opt.output becomes the sweep's index (h5::write_sweep_index): every
+// variation's parameters and summary, the statistics, the chunk files.
+// on_chunk(k, chunks, run): after each chunk (run: null for one read back).
+// Without `until`, a Ctrl-C (opt.interrupt) stops after the running chunk's
+// interrupted run, leaving the finished chunks. SceneError for a chunk
+// file that holds other variations.
+struct ChunkedSweep {
+  SweepRun result;       // parameters, summary, statistics of all variations (when complete)
+  int chunks = 0, reused = 0;
+  bool complete = false;
+  std::vector<std::string> chunk_files;
+};
+ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& source, std::vector<std::string> names,
+                               std::vector<std::vector<double>> points, int chunk, RunOptions opt,
+                               const std::function<void(int, int, const RunResult*)>& on_chunk = {});
 
 // variation, parameters..., summary... (written to path.tmp, then renamed).
 void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
