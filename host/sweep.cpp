@@ -559,10 +559,11 @@ double sweep_dt(const Scene& s) {
 
 ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& source, std::vector<std::string> names,
                                std::vector<std::vector<double>> points, int chunk, RunOptions opt,
-                               const std::function<void(int, int, const RunResult*)>& on_chunk) {
+                               const std::function<void(int, int, const RunResult*)>& on_chunk, const Shards& shards) {
   namespace fs = std::filesystem;
   if (chunk < 1) throw SceneError("sweep: --chunk must be >= 1");
   if (opt.until >= 0) throw SceneError("sweep: --until does not apply to a chunked sweep (Ctrl-C stops it; run it again to continue)");
+  if (shards.ranks < 1 || shards.rank < 0 || shards.rank >= shards.ranks) throw SceneError("sweep: bad shard rank");
   ChunkedSweep out;
   const std::size_t n = points.size();
   out.chunks = int((n + std::size_t(chunk) - 1) / std::size_t(chunk));
@@ -570,83 +571,106 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
     const std::size_t a = std::size_t(k) * std::size_t(chunk), b = std::min(n, a + std::size_t(chunk));
     return std::vector<std::vector<double>>(points.begin() + std::ptrdiff_t(a), points.begin() + std::ptrdiff_t(b));
   };
+  auto mine = [&](int k) { return k % shards.ranks == shards.rank; };
   const fs::path dir = opt.output + ".chunks";
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw SceneError(opt.output + ": cannot create " + dir.string() + ": " + ec.message());
-  // one dt for all chunks: the scene's, or the smallest auto step over them
-  const Scene base = parse_scene(text, source);
-  double dt = 0;
-  if (base.sim.dt_auto) {
-    dt = HUGE_VAL;
-    for (int k = 0; k < out.chunks; ++k) dt = std::min(dt, sweep_dt(make_sweep(text, source, names, chunk_points(k)).scene));
-  }
-  std::vector<h5::Column> parameters, summary;
-  h5::SweepIndex index;
-  index.chunk_first.push_back(0);
-  const RunOptions base_opt = opt;
   for (int k = 0; k < out.chunks; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "chunk-%05d.h5", k);
-    const std::string file = (dir / name).string();
-    out.chunk_files.push_back(file);
-    index.chunk_files.push_back((fs::path(dir.filename()) / name).string());
+    out.chunk_files.push_back((dir / name).string());
+  }
+  // one dt for all chunks: the scene's, or the smallest auto step over them
+  // (each process resolves its own chunks', then the minimum over all)
+  const Scene base = parse_scene(text, source);
+  double dt = base.sim.dt;
+  if (base.sim.dt_auto) {
+    double local = HUGE_VAL;
+    for (int k = 0; k < out.chunks; ++k)
+      if (mine(k)) local = std::min(local, sweep_dt(make_sweep(text, source, names, chunk_points(k)).scene));
+    dt = shards.min_all(local);
+  }
+  std::vector<std::vector<h5::Column>> par(std::size_t(out.chunks)), sum(std::size_t(out.chunks));
+  // a finished chunk's file, read back (SceneError when it holds other variations)
+  auto read_back = [&](int k) {
     const std::vector<std::vector<double>> pts = chunk_points(k);
-    index.chunk_first.push_back(index.chunk_first.back() + std::int64_t(pts.size()));
-    std::vector<h5::Column> par, sum;
-    if (fs::exists(file, ec)) {  // finished before: read back
-      const h5::Reader rd(file);
-      const h5::Output& o = rd.output();
-      bool same = o.has_sweep && o.sweep_parameters.size() == names.size();
-      for (std::size_t d = 0; same && d < names.size(); ++d) {
-        same = o.sweep_parameters[d].name == names[d] && o.sweep_parameters[d].values.size() == pts.size();
-        for (std::size_t i = 0; same && i < pts.size(); ++i) same = o.sweep_parameters[d].values[i] == pts[i][d];
-      }
-      if (!same)
-        throw SceneError(file + ": holds other variations than chunk " + std::to_string(k) +
-                         " of this sweep (another sweep's chunks? remove " + dir.string() + " to start anew)");
-      par = o.sweep_parameters;
-      sum = o.sweep_summary;
+    const h5::Reader rd(out.chunk_files[std::size_t(k)]);
+    const h5::Output& o = rd.output();
+    bool same = o.has_sweep && o.sweep_parameters.size() == names.size();
+    for (std::size_t d = 0; same && d < names.size(); ++d) {
+      same = o.sweep_parameters[d].name == names[d] && o.sweep_parameters[d].values.size() == pts.size();
+      for (std::size_t i = 0; same && i < pts.size(); ++i) same = o.sweep_parameters[d].values[i] == pts[i][d];
+    }
+    if (!same)
+      throw SceneError(out.chunk_files[std::size_t(k)] + ": holds other variations than chunk " + std::to_string(k) +
+                       " of this sweep (another sweep's chunks? remove " + dir.string() + " to start anew)");
+    par[std::size_t(k)] = o.sweep_parameters;
+    sum[std::size_t(k)] = o.sweep_summary;
+  };
+  bool stopped = false;
+  for (int k = 0; k < out.chunks && !stopped; ++k) {
+    if (!mine(k)) continue;
+    const std::string& file = out.chunk_files[std::size_t(k)];
+    if (fs::exists(file, ec)) {  // finished before
+      read_back(k);
       ++out.reused;
       if (on_chunk) on_chunk(k, out.chunks, nullptr);
-    } else {
-      Sweep sw = make_sweep(text, source, names, pts);
-      if (base.sim.dt_auto) {
-        sw.scene.sim.dt_auto = false;
-        sw.scene.sim.dt = dt;
-      }
-      RunOptions o = base_opt;
-      o.output = file + ".part";
-      SweepRun r = run_sweep(sw, o);
-      if (on_chunk) on_chunk(k, out.chunks, &r.run);
-      if (r.run.interrupted) return out;
-      fs::rename(o.output, file, ec);
-      if (ec) throw SceneError(file + ": cannot rename " + o.output + " to it: " + ec.message());
-      par = std::move(r.parameters);
-      sum = std::move(r.summary);
+      continue;
     }
-    if (k == 0) {
-      parameters = par;
-      summary = sum;
-    } else {
-      for (std::size_t c = 0; c < par.size(); ++c)
-        parameters[c].values.insert(parameters[c].values.end(), par[c].values.begin(), par[c].values.end());
-      for (std::size_t c = 0; c < sum.size(); ++c)
-        summary[c].values.insert(summary[c].values.end(), sum[c].values.begin(), sum[c].values.end());
+    Sweep sw = make_sweep(text, source, names, chunk_points(k));
+    if (base.sim.dt_auto) {
+      sw.scene.sim.dt_auto = false;
+      sw.scene.sim.dt = dt;
     }
+    RunOptions o = opt;
+    o.output = file + ".part";
+    SweepRun r = run_sweep(sw, o);
+    if (on_chunk) on_chunk(k, out.chunks, &r.run);
+    if (r.run.interrupted) {
+      stopped = true;
+      break;
+    }
+    fs::rename(o.output, file, ec);
+    if (ec) throw SceneError(file + ": cannot rename " + o.output + " to it: " + ec.message());
+    par[std::size_t(k)] = std::move(r.parameters);
+    sum[std::size_t(k)] = std::move(r.summary);
   }
+  // every process has finished its chunks (or one stopped: then all keep theirs)
+  if (!shards.all_ok(!stopped)) return out;
   out.complete = true;
-  out.result.parameters = std::move(parameters);
-  out.result.summary = std::move(summary);
-  out.result.statistics = sweep_statistics(out.result.summary);
-  index.parameters = out.result.parameters;
-  index.summary = out.result.summary;
+  out.reused = int(shards.sum_all(out.reused));
+  if (shards.rank != 0) return out;  // the index is process 0's
+  for (int k = 0; k < out.chunks; ++k)
+    if (!mine(k)) read_back(k);  // the other processes' chunks (a shared folder)
+  std::vector<h5::Column>& parameters = out.result.parameters;
+  std::vector<h5::Column>& summary = out.result.summary;
+  h5::SweepIndex index;
+  index.chunk_first.push_back(0);
+  for (int k = 0; k < out.chunks; ++k) {
+    const auto& p = par[std::size_t(k)];
+    const auto& s = sum[std::size_t(k)];
+    if (k == 0) {
+      parameters = p;
+      summary = s;
+    } else {
+      for (std::size_t c = 0; c < p.size(); ++c)
+        parameters[c].values.insert(parameters[c].values.end(), p[c].values.begin(), p[c].values.end());
+      for (std::size_t c = 0; c < s.size(); ++c)
+        summary[c].values.insert(summary[c].values.end(), s[c].values.begin(), s[c].values.end());
+    }
+    index.chunk_files.push_back((fs::path(dir.filename()) / fs::path(out.chunk_files[std::size_t(k)]).filename()).string());
+    index.chunk_first.push_back(index.chunk_first.back() + std::int64_t(p.empty() ? 0 : p[0].values.size()));
+  }
+  out.result.statistics = sweep_statistics(summary);
+  index.parameters = parameters;
+  index.summary = summary;
   index.statistics = out.result.statistics;
   index.statistic_names = sweep_statistic_names();
   index.scene_text = text;
   index.scene_source = source;
-  index.dt = base.sim.dt_auto ? dt : base.sim.dt;
-  h5::write_sweep_index(base_opt.output, index);
+  index.dt = dt;
+  h5::write_sweep_index(opt.output, index);
   return out;
 }
 

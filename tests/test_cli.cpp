@@ -480,7 +480,7 @@ TEST(Cli, ChunkedSweepEqualsTheSweepInOneBatchAndContinuesChunkByChunk) {
   const std::string cmd = "sweep " + scene + vary + " --chunk 4 -o " + out + " --csv " + path("chunked.csv");
   const Result r = cli(cmd);
   ASSERT_EQ(r.status, 0) << r.err;
-  expect_contains(r.err, "3 chunks (0 read back)");
+  expect_contains(r.err, "3 chunks (0 read back");
   auto text = [](const std::string& p) {
     std::ifstream in(p);
     std::stringstream ss;
@@ -492,7 +492,7 @@ TEST(Cli, ChunkedSweepEqualsTheSweepInOneBatchAndContinuesChunkByChunk) {
   std::filesystem::remove(out + ".chunks/chunk-00001.h5");
   const Result again = cli(cmd);
   ASSERT_EQ(again.status, 0) << again.err;
-  expect_contains(again.err, "3 chunks (2 read back)");
+  expect_contains(again.err, "3 chunks (2 read back");
   EXPECT_EQ(text(path("chunked.csv")), text(path("one.csv")));
   // the index: every variation's parameters and summary, the statistics, the chunk files
   expect_contains(text(out), "manyrods-sweep-index");

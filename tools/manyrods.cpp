@@ -34,6 +34,9 @@
 #include "manyrods/runner.h"
 #include "manyrods/scene.h"
 #include "manyrods/sweep.h"
+#ifdef MANYRODS_MPI
+#include <mpi.h>
+#endif
 #include "manyrods/usd.h"
 
 using namespace manyrods;
@@ -538,34 +541,104 @@ int command_run(const Options& o) {
   return run_status(r);
 }
 
-// A sweep `--chunk` variations at a time (scene::run_sweep_chunked): a line
-// per chunk, then the index file and the CSVs; stopped by Ctrl-C, the same
-// command continues it.
+int report(const std::exception& e);
+
+// ---- MPI: a sweep's chunks shared among ranks -----------------------------------
+
+// The MPI session of a `manyrods sweep` started by an MPI launcher (mpirun,
+// srun): initialized only then, so that every other use of the tool runs
+// without MPI (a plain start is one process).
+bool launched_by_mpi() {
+  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "MPI_LOCALNRANKS"})
+    if (std::getenv(v)) return true;
+  return false;
+}
+
+struct MpiSession {
+  bool on = false;
+  Shards shards;
+  MpiSession() {
+#ifdef MANYRODS_MPI
+    on = launched_by_mpi();
+    if (!on) return;
+    MPI_Init(nullptr, nullptr);
+    MPI_Comm_rank(MPI_COMM_WORLD, &shards.rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &shards.ranks);
+    shards.min_all = [](double x) {
+      double m = x;
+      MPI_Allreduce(&x, &m, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+      return m;
+    };
+    shards.sum_all = [](double x) {
+      double s = 0;
+      MPI_Allreduce(&x, &s, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+      return s;
+    };
+    shards.all_ok = [](bool b) {
+      int in = b ? 1 : 0, all = 0;
+      MPI_Allreduce(&in, &all, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
+      return all != 0;
+    };
+#endif
+  }
+  ~MpiSession() {
+#ifdef MANYRODS_MPI
+    if (on) MPI_Finalize();
+#endif
+  }
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+};
+
+// A sweep `--chunk` variations at a time (scene::run_sweep_chunked), its
+// chunks shared among the MPI ranks when launched by mpirun or srun: a
+// line per chunk, then (rank 0) the index file and the CSVs; stopped by
+// Ctrl-C, the same command continues it.
 int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& design, const RunOptions& opt) {
   if (o.force_dt) throw SceneError("--force-dt does not apply to a chunked sweep (--chunk)");
+  static MpiSession mpi;  // (finalized at exit)
+  const Shards& sh = mpi.shards;
   std::vector<std::string> names;
   for (const Vary& v : vs) names.push_back(v.key);
   const std::vector<std::vector<double>> points = sweep_points(vs, design);
-  std::fprintf(stderr, "manyrods sweep: %zu variations in chunks of %d -> %s.chunks/\n", points.size(), o.chunk,
-               opt.output.c_str());
-  const ChunkedSweep cs = run_sweep_chunked(
-      read_file(o.scene_path), o.scene_path, names, points, o.chunk, opt, [](int k, int n, const RunResult* r) {
+  if (sh.rank == 0)
+    std::fprintf(stderr, "manyrods sweep: %zu variations in chunks of %d -> %s.chunks/%s\n", points.size(), o.chunk,
+                 opt.output.c_str(), sh.ranks > 1 ? (" (" + std::to_string(sh.ranks) + " MPI ranks)").c_str() : "");
+  const std::string who = sh.ranks > 1 ? "rank " + std::to_string(sh.rank) + ": " : "";
+  ChunkedSweep cs;
+  try {
+    cs = run_sweep_chunked(
+      read_file(o.scene_path), o.scene_path, names, points, o.chunk, opt,
+      [&](int k, int n, const RunResult* r) {
         if (r)
-          std::fprintf(stderr, "manyrods: chunk %d/%d: %s at t = %.6g s, %.3g element-steps/s, %.3g s wall\n", k + 1,
-                       n, r->interrupted ? "stopped" : "done", r->time, r->element_steps_per_s, r->wall_s);
+          std::fprintf(stderr, "manyrods: %schunk %d/%d: %s at t = %.6g s, %.3g element-steps/s, %.3g s wall\n",
+                       who.c_str(), k + 1, n, r->interrupted ? "stopped" : "done", r->time, r->element_steps_per_s,
+                       r->wall_s);
         else
-          std::fprintf(stderr, "manyrods: chunk %d/%d: done before (read back)\n", k + 1, n);
-      });
+          std::fprintf(stderr, "manyrods: %schunk %d/%d: done before (read back)\n", who.c_str(), k + 1, n);
+      },
+      sh);
+  } catch (const std::exception& e) {
+#ifdef MANYRODS_MPI
+    if (sh.ranks > 1) {  // the other ranks would wait in a collective: end them all
+      report(e);
+      MPI_Abort(MPI_COMM_WORLD, 2);
+    }
+#endif
+    throw;
+  }
   if (!cs.complete) {
-    std::fprintf(stderr, "manyrods: stopped; the finished chunks are kept: run the same command to continue\n");
+    if (sh.rank == 0)
+      std::fprintf(stderr, "manyrods: stopped; the finished chunks are kept: run the same command to continue\n");
     return 130;
   }
+  if (sh.rank != 0) return 0;
   const std::string csv = o.csv.empty() ? fs::path(opt.output).replace_extension(".csv").string() : o.csv;
   write_csv(csv, cs.result.parameters, cs.result.summary);
   const std::string stats = fs::path(csv).replace_extension("").string() + "_statistics.csv";
   write_statistics_csv(stats, cs.result.statistics);
-  std::fprintf(stderr, "manyrods: %d chunks (%d read back) -> index %s, summary %s, statistics %s\n", cs.chunks,
-               cs.reused, opt.output.c_str(), csv.c_str(), stats.c_str());
+  std::fprintf(stderr, "manyrods: %d chunks (%d read back from an earlier run) -> index %s, summary %s, statistics %s\n",
+               cs.chunks, cs.reused, opt.output.c_str(), csv.c_str(), stats.c_str());
   return 0;
 }
 
@@ -582,6 +655,8 @@ int command_sweep(const Options& o) {
   opt.checkpoint_every = 0;  // sweeps are written in one piece (a checkpoint at the end, Ctrl-C, --until)
   opt.all_frames = o.frames == "all";
   if (o.chunk > 0) return chunked_sweep(o, vs, design, opt);
+  if (launched_by_mpi())
+    throw SceneError("sweep: under mpirun or srun the ranks share a sweep's chunks: give --chunk C");
   Sweep sw = make_sweep(read_file(o.scene_path), o.scene_path, vs, design);
   sw.scene.sim.force_dt = o.force_dt;
   return run_sweep(sw, opt, o.csv, nullptr);

@@ -138,15 +138,30 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
 // Without `until`, a Ctrl-C (opt.interrupt) stops after the running chunk's
 // interrupted run, leaving the finished chunks. SceneError for a chunk
 // file that holds other variations.
+// How the chunks of a chunked sweep are shared among processes (MPI ranks,
+// on one folder that all of them see): process `rank` of `ranks` runs the
+// chunks k with k mod ranks = rank; min_all(x) returns the minimum of x
+// over all processes and all_ok(b) the AND of b over all (collectives that
+// every process calls at the same point; tools/manyrods.cpp gives them to
+// MPI); sum_all(x) the sum (for the count of chunks read back). Process 0 then reads the other processes' chunk files back and
+// writes the index. The default: one process.
+struct Shards {
+  int rank = 0, ranks = 1;
+  std::function<double(double)> min_all = [](double x) { return x; };
+  std::function<bool(bool)> all_ok = [](bool b) { return b; };
+  std::function<double(double)> sum_all = [](double x) { return x; };
+};
+
 struct ChunkedSweep {
-  SweepRun result;       // parameters, summary, statistics of all variations (when complete)
+  SweepRun result;       // parameters, summary, statistics of all variations (complete, process 0)
   int chunks = 0, reused = 0;
   bool complete = false;
   std::vector<std::string> chunk_files;
 };
 ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& source, std::vector<std::string> names,
                                std::vector<std::vector<double>> points, int chunk, RunOptions opt,
-                               const std::function<void(int, int, const RunResult*)>& on_chunk = {});
+                               const std::function<void(int, int, const RunResult*)>& on_chunk = {},
+                               const Shards& shards = {});
 
 // variation, parameters..., summary... (written to path.tmp, then renamed).
 void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,

@@ -21,6 +21,8 @@ MANYRODS_PACKAGES=(
   python3-h5py      # tests/test_h5io: checks that h5py reads the output layout
   python3-dev       # Python headers: the Python module (python/src/module.cpp)
   python3-venv      # the project's virtual environment (.venv) for the Python side
+  openmpi-bin       # mpirun: sweeps sharded over MPI ranks (manyrods sweep --chunk under mpirun; ctest mpi_sweep)
+  libopenmpi-dev    # MPI headers and library for the command-line tool (optional: MANYRODS_MPI)
 )
 
 manyrods_install_deps() {
