@@ -415,32 +415,42 @@ void Writer::write_checkpoint(const Checkpoint& c) {
   }
 }
 
+namespace {
+// /loc/name: one dataset per column, their names in the attribute "order".
+Id column_group(hid_t loc, const char* name, const std::vector<Column>& cols, const std::string& path) {
+  Id sg = checked(H5Gcreate2(loc, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, path,
+                  std::string("cannot create /sweep/") + name);
+  std::string order;
+  for (const Column& c : cols) {
+    write_vector(sg.get(), c.name.c_str(), H5T_NATIVE_DOUBLE, c.values, path);
+    order += (order.empty() ? "" : "\n") + c.name;
+  }
+  attr_string(sg.get(), "order", order, path);
+  return sg;
+}
+std::string lines(const std::vector<std::string>& v) {
+  std::string s;
+  for (const std::string& x : v) s += (s.empty() ? "" : "\n") + x;
+  return s;
+}
+}  // namespace
+
+void Writer::add_sweep_table(const char* name, const std::vector<Column>& columns, const char* rows_attr,
+                             const std::vector<std::string>& row_names) {
+  Impl& w = *impl_;
+  const Id g = checked(H5Gopen2(w.file.get(), "sweep", H5P_DEFAULT), H5Gclose, w.tmp, "no /sweep to add to");
+  const Id t = column_group(g.get(), name, columns, w.tmp);
+  attr_string(t.get(), rows_attr, lines(row_names), w.tmp);
+}
+
 void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
-                         const std::vector<std::int32_t>& variation_first_rod, const std::vector<Column>& statistics,
-                         const std::vector<std::string>& statistic_names) {
+                         const std::vector<std::int32_t>& variation_first_rod) {
   Impl& w = *impl_;
   const Id g = checked(H5Gcreate2(w.file.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                        w.tmp, "cannot create /sweep");
   write_vector(g.get(), "variation_first_rod", H5T_NATIVE_INT32, variation_first_rod, w.tmp);
-  auto group = [&](const char* name, const std::vector<Column>& cols) {
-    Id sg = checked(H5Gcreate2(g.get(), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
-                    std::string("cannot create /sweep/") + name);
-    std::string order;
-    for (const Column& c : cols) {
-      write_vector(sg.get(), c.name.c_str(), H5T_NATIVE_DOUBLE, c.values, w.tmp);
-      order += (order.empty() ? "" : "\n") + c.name;
-    }
-    attr_string(sg.get(), "order", order, w.tmp);
-    return sg;
-  };
-  group("parameters", parameters);
-  group("summary", summary);
-  if (!statistics.empty()) {
-    const Id sg = group("statistics", statistics);
-    std::string names;
-    for (const std::string& n : statistic_names) names += (names.empty() ? "" : "\n") + n;
-    attr_string(sg.get(), "statistics", names, w.tmp);
-  }
+  column_group(g.get(), "parameters", parameters, w.tmp);
+  column_group(g.get(), "summary", summary, w.tmp);
 }
 
 std::int64_t Writer::frames() const { return impl_->frames; }
@@ -475,25 +485,15 @@ void write_sweep_index(const std::string& path, const SweepIndex& x) {
     }
     const Id g = checked(H5Gcreate2(f.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, tmp,
                          "cannot create /sweep");
-    auto group = [&](const char* name, const std::vector<Column>& cols) {
-      Id sg = checked(H5Gcreate2(g.get(), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, tmp,
-                      std::string("cannot create /sweep/") + name);
-      std::string order;
-      for (const Column& c : cols) {
-        write_vector(sg.get(), c.name.c_str(), H5T_NATIVE_DOUBLE, c.values, tmp);
-        order += (order.empty() ? "" : "\n") + c.name;
-      }
-      attr_string(sg.get(), "order", order, tmp);
-      return sg;
-    };
-    group("parameters", x.parameters);
-    group("summary", x.summary);
-    const Id st = group("statistics", x.statistics);
-    std::string names, files;
-    for (const std::string& n : x.statistic_names) names += (names.empty() ? "" : "\n") + n;
-    attr_string(st.get(), "statistics", names, tmp);
-    for (const std::string& n : x.chunk_files) files += (files.empty() ? "" : "\n") + n;
-    attr_string(g.get(), "chunk_files", files, tmp);
+    column_group(g.get(), "parameters", x.parameters, tmp);
+    column_group(g.get(), "summary", x.summary, tmp);
+    const Id st = column_group(g.get(), "statistics", x.statistics, tmp);
+    attr_string(st.get(), "statistics", lines(x.statistic_names), tmp);
+    if (!x.sensitivity.empty()) {
+      const Id se = column_group(g.get(), "sensitivity", x.sensitivity, tmp);
+      attr_string(se.get(), "indices", lines(x.sensitivity_names), tmp);
+    }
+    attr_string(g.get(), "chunk_files", lines(x.chunk_files), tmp);
     write_vector(g.get(), "chunk_first_variation", H5T_NATIVE_INT64, x.chunk_first, tmp);
   }
   std::error_code ec;

@@ -129,7 +129,8 @@ DesignKind parse_design(const std::string& name) {
   if (name == "mc") return DesignKind::mc;
   if (name == "lhs") return DesignKind::lhs;
   if (name == "sobol") return DesignKind::sobol;
-  throw SceneError("--design " + name + ": expected grid, mc, lhs or sobol");
+  if (name == "saltelli") return DesignKind::saltelli;
+  throw SceneError("--design " + name + ": expected grid, mc, lhs, sobol or saltelli");
 }
 
 const char* design_name(DesignKind k) {
@@ -138,6 +139,7 @@ const char* design_name(DesignKind k) {
     case DesignKind::mc: return "mc";
     case DesignKind::lhs: return "lhs";
     case DesignKind::sobol: return "sobol";
+    case DesignKind::saltelli: return "saltelli";
   }
   return "?";
 }
@@ -149,6 +151,22 @@ std::vector<std::vector<double>> unit_points(const Design& des, int dims) {
   switch (des.kind) {
     case DesignKind::lhs: return lhs_points(des, dims);
     case DesignKind::sobol: return sobol_points(des, dims);
+    case DesignKind::saltelli: {
+      Design base = des;
+      base.kind = 2 * dims <= kSobolDims ? DesignKind::sobol : DesignKind::mc;
+      const auto ab = unit_points(base, 2 * dims);
+      const std::size_t n = std::size_t(des.samples), d = std::size_t(dims);
+      std::vector<std::vector<double>> pts;
+      pts.reserve(n * (d + 2));
+      for (const auto& p : ab) pts.emplace_back(p.begin(), p.begin() + std::ptrdiff_t(d));  // A
+      for (const auto& p : ab) pts.emplace_back(p.begin() + std::ptrdiff_t(d), p.end());    // B
+      for (std::size_t i = 0; i < d; ++i)
+        for (std::size_t k = 0; k < n; ++k) {  // A_B^(i)
+          pts.push_back(pts[k]);
+          pts.back()[i] = pts[n + k][i];
+        }
+      return pts;
+    }
     default: break;
   }
   // mc: point by point, parameter by parameter, from one stream (the order

@@ -210,7 +210,9 @@ Sweep make_sweep(const std::string& text, const std::string& source, const std::
                  const Design& design) {
   std::vector<std::string> names;
   for (const Vary& v : vary) names.push_back(v.key);
-  return make_sweep(text, source, std::move(names), sweep_points(vary, design));
+  Sweep sw = make_sweep(text, source, std::move(names), sweep_points(vary, design));
+  if (design.kind == DesignKind::saltelli) sw.sensitivity_base = design.samples;
+  return sw;
 }
 
 Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
@@ -392,7 +394,12 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
     out.summary = sweep_summary(sw, rec);
     out.statistics = sweep_statistics(out.summary);
     std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
-    w.write_sweep(out.parameters, out.summary, first, out.statistics, sweep_statistic_names());
+    w.write_sweep(out.parameters, out.summary, first);
+    w.add_sweep_table("statistics", out.statistics, "statistics", sweep_statistic_names());
+    if (sw.sensitivity_base > 0) {
+      out.sensitivity = sweep_sensitivity(out.summary, sw.sensitivity_base, int(sw.names.size()));
+      w.add_sweep_table("sensitivity", out.sensitivity, "indices", sensitivity_names(sw.names));
+    }
   };
   out.run = run_scene(sw.scene, opt, restart);
   return out;
@@ -515,6 +522,59 @@ void write_file(const std::string& path, Body&& body) {
 }
 }  // namespace
 
+std::vector<std::string> sensitivity_names(const std::vector<std::string>& parameters) {
+  std::vector<std::string> n;
+  for (const char* kind : {"S1", "ST"})
+    for (const std::string& p : parameters) n.push_back(std::string(kind) + " " + p);
+  return n;
+}
+
+std::vector<h5::Column> sweep_sensitivity(const std::vector<h5::Column>& summary, int base, int dims) {
+  const std::size_t n = std::size_t(base), d = std::size_t(dims);
+  std::vector<h5::Column> out;
+  for (const h5::Column& c : summary) {
+    const std::vector<double>& f = c.values;
+    h5::Column col{c.name, std::vector<double>(2 * d, kNaN)};
+    if (f.size() != n * (d + 2)) {
+      out.push_back(std::move(col));
+      continue;
+    }
+    double m = 0, m2 = 0;
+    int cnt = 0;
+    for (std::size_t k = 0; k < 2 * n; ++k)
+      if (std::isfinite(f[k])) m += f[k], m2 += f[k] * f[k], ++cnt;
+    const double mean = cnt > 0 ? m / cnt : kNaN;
+    const double var = cnt > 1 ? (m2 - cnt * mean * mean) / (cnt - 1) : kNaN;
+    for (std::size_t i = 0; i < d; ++i) {
+      double s1 = 0, st = 0;
+      int used = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        const double fa = f[k], fb = f[n + k], fab = f[(2 + i) * n + k];
+        if (!(std::isfinite(fa) && std::isfinite(fb) && std::isfinite(fab))) continue;
+        s1 += (fb - mean) * (fab - fa);  // (centred: the mean's square would otherwise dominate the noise)
+        st += (fa - fab) * (fa - fab);
+        ++used;
+      }
+      if (used > 0 && var > 0) {
+        col.values[i] = s1 / used / var;
+        col.values[d + i] = st / used / (2 * var);
+      }
+    }
+    out.push_back(std::move(col));
+  }
+  return out;
+}
+
+void write_sensitivity_csv(const std::string& path, const std::vector<h5::Column>& sensitivity,
+                           const std::vector<std::string>& parameters) {
+  write_file(path, [&](std::ostream& out) {
+    out << "observable,parameter,S1,ST\n";
+    const std::size_t d = parameters.size();
+    for (const h5::Column& c : sensitivity)
+      for (std::size_t i = 0; i < d; ++i) out << c.name << ',' << parameters[i] << ',' << c.values[i] << ',' << c.values[d + i] << '\n';
+  });
+}
+
 void write_statistics_csv(const std::string& path, const std::vector<h5::Column>& statistics) {
   write_file(path, [&](std::ostream& out) {
     out << "observable";
@@ -559,7 +619,8 @@ double sweep_dt(const Scene& s) {
 
 ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& source, std::vector<std::string> names,
                                std::vector<std::vector<double>> points, int chunk, RunOptions opt,
-                               const std::function<void(int, int, const RunResult*)>& on_chunk, const Shards& shards) {
+                               const std::function<void(int, int, const RunResult*)>& on_chunk, const Shards& shards,
+                               int sensitivity_base) {
   namespace fs = std::filesystem;
   if (chunk < 1) throw SceneError("sweep: --chunk must be >= 1");
   if (opt.until >= 0) throw SceneError("sweep: --until does not apply to a chunked sweep (Ctrl-C stops it; run it again to continue)");
@@ -663,6 +724,11 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
     index.chunk_first.push_back(index.chunk_first.back() + std::int64_t(p.empty() ? 0 : p[0].values.size()));
   }
   out.result.statistics = sweep_statistics(summary);
+  if (sensitivity_base > 0) {
+    out.result.sensitivity = sweep_sensitivity(summary, sensitivity_base, int(names.size()));
+    index.sensitivity = out.result.sensitivity;
+    index.sensitivity_names = sensitivity_names(names);
+  }
   index.parameters = parameters;
   index.summary = summary;
   index.statistics = out.result.statistics;

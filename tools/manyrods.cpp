@@ -302,6 +302,21 @@ int plot(const std::string& in, std::string dir) {
   return run_gnuplot(dir, gp.str(), made);
 }
 
+// The CSVs of a sweep: the summary (csv), its statistics and, for a
+// saltelli design, the sensitivity indices (csv's stem + _statistics.csv,
+// _sensitivity.csv).
+void write_sweep_csvs(const std::string& csv, const SweepRun& sr, const std::vector<std::string>& names) {
+  write_csv(csv, sr.parameters, sr.summary);
+  const std::string stem = fs::path(csv).replace_extension("").string();
+  write_statistics_csv(stem + "_statistics.csv", sr.statistics);
+  std::fprintf(stderr, "manyrods: sweep summary -> %s, statistics -> %s_statistics.csv", csv.c_str(), stem.c_str());
+  if (!sr.sensitivity.empty()) {
+    write_sensitivity_csv(stem + "_sensitivity.csv", sr.sensitivity, names);
+    std::fprintf(stderr, ", sensitivity indices -> %s_sensitivity.csv", stem.c_str());
+  }
+  std::fputc('\n', stderr);
+}
+
 // A sweep (new, or continued from its file's checkpoint) into opt.output,
 // with the per-variation summary in /sweep and in `csv` (default: the
 // output with .csv).
@@ -312,11 +327,8 @@ int run_sweep(const Sweep& sw, RunOptions opt, std::string csv, const h5::Checkp
   const std::string output = opt.output;
   const SweepRun sr = manyrods::scene::run_sweep(sw, std::move(opt), restart);
   const RunResult& r = sr.run;
-  write_csv(csv, sr.parameters, sr.summary);
-  const std::string stats = fs::path(csv).replace_extension("").string() + "_statistics.csv";
-  write_statistics_csv(stats, sr.statistics);
   summary_line(r, output);
-  std::fprintf(stderr, "manyrods: sweep summary -> %s, statistics -> %s\n", csv.c_str(), stats.c_str());
+  write_sweep_csvs(csv, sr, sw.names);
   return run_status(r);
 }
 
@@ -402,8 +414,10 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   sweep->add_option("--samples", o.samples, "sampled design: number of variations")->check(non_negative);
   sweep->add_option("--seed", o.seed, "sampled design: seed");
-  sweep->add_option("--design", o.design, "grid (default without --samples), mc (default with it), lhs or sobol")
-      ->check(CLI::IsMember({"grid", "mc", "lhs", "sobol"}));
+  sweep->add_option("--design", o.design,
+                    "grid (default without --samples), mc (default with it), lhs, sobol, or saltelli (Sobol' "
+                    "sensitivity indices: --samples N base points, N (parameters + 2) variations)")
+      ->check(CLI::IsMember({"grid", "mc", "lhs", "sobol", "saltelli"}));
   sweep->add_option("-o,--output", o.output, "output HDF5 file")->required();
   sweep->add_option("--csv", o.csv, "summary CSV (default: the output with .csv)");
   sweep->add_option("--threads", o.threads, "OpenMP threads")->check(positive);
@@ -617,7 +631,7 @@ int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& d
         else
           std::fprintf(stderr, "manyrods: %schunk %d/%d: done before (read back)\n", who.c_str(), k + 1, n);
       },
-      sh);
+      sh, design.kind == DesignKind::saltelli ? design.samples : 0);
   } catch (const std::exception& e) {
 #ifdef MANYRODS_MPI
     if (sh.ranks > 1) {  // the other ranks would wait in a collective: end them all
@@ -634,11 +648,9 @@ int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& d
   }
   if (sh.rank != 0) return 0;
   const std::string csv = o.csv.empty() ? fs::path(opt.output).replace_extension(".csv").string() : o.csv;
-  write_csv(csv, cs.result.parameters, cs.result.summary);
-  const std::string stats = fs::path(csv).replace_extension("").string() + "_statistics.csv";
-  write_statistics_csv(stats, cs.result.statistics);
-  std::fprintf(stderr, "manyrods: %d chunks (%d read back from an earlier run) -> index %s, summary %s, statistics %s\n",
-               cs.chunks, cs.reused, opt.output.c_str(), csv.c_str(), stats.c_str());
+  std::fprintf(stderr, "manyrods: %d chunks (%d read back from an earlier run) -> index %s\n", cs.chunks, cs.reused,
+               opt.output.c_str());
+  write_sweep_csvs(csv, cs.result, names);
   return 0;
 }
 

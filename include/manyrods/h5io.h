@@ -118,8 +118,8 @@ struct Checkpoint {
 // each one's first variation, and the scene; written to <path>.tmp and
 // renamed. The frames stay in the chunk files.
 struct SweepIndex {
-  std::vector<Column> parameters, summary, statistics;
-  std::vector<std::string> statistic_names;
+  std::vector<Column> parameters, summary, statistics, sensitivity;
+  std::vector<std::string> statistic_names, sensitivity_names;
   std::vector<std::string> chunk_files;
   std::vector<std::int64_t> chunk_first;  // [chunks + 1]
   std::string scene_text, scene_source;
@@ -138,11 +138,13 @@ class Writer {
   // layout.directors); the pointer type must match layout.float32.
   void append_frame(double time, const void* positions, const void* directors, const EnergyRow& energy);
   void write_checkpoint(const Checkpoint& c);
-  // statistics: one column per summary column (its name), its values the
-  // statistics named by `statistic_names` (the group's attribute "statistics")
   void write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
-                   const std::vector<std::int32_t>& variation_first_rod, const std::vector<Column>& statistics = {},
-                   const std::vector<std::string>& statistic_names = {});
+                   const std::vector<std::int32_t>& variation_first_rod);
+  // After write_sweep: /sweep/<name>, one column per summary column (its
+  // name), its values named by `row_names` (the group's attribute
+  // `rows_attr`): the statistics, the sensitivity indices.
+  void add_sweep_table(const char* name, const std::vector<Column>& columns, const char* rows_attr,
+                       const std::vector<std::string>& row_names);
   std::int64_t frames() const;
   // Closes the file and renames <path>.tmp to <path>.
   void finish();

@@ -20,6 +20,12 @@
 //          point is the centre of its 2⁻³² cell, so u is never 0 or 1.
 //          Without scrambling (seed ignored) it is the classic sequence
 //          (0.5, 0.5, …), (0.75, 0.25, …), … shifted by 2⁻³³.
+//   saltelli  the design of Sobol' sensitivity indices (Saltelli et al.
+//          2010): two independent N-point samples A and B (the two halves
+//          of a 2d-dimensional scrambled Sobol' point set, or Monte Carlo
+//          beyond 10 parameters), then for each parameter i the matrix
+//          A_B^(i), A with its column i from B: N (d + 2) points in the
+//          order A, B, A_B^(1), …, A_B^(d); `samples` is N.
 #pragma once
 
 #include <cstdint>
@@ -28,7 +34,7 @@
 
 namespace manyrods::scene {
 
-enum class DesignKind { grid, mc, lhs, sobol };
+enum class DesignKind { grid, mc, lhs, sobol, saltelli };
 
 struct Design {
   DesignKind kind = DesignKind::grid;
@@ -37,7 +43,7 @@ struct Design {
   bool scramble = true;     // sobol only
 };
 
-// "grid", "mc", "lhs" or "sobol" (SceneError otherwise).
+// "grid", "mc", "lhs", "sobol" or "saltelli" (SceneError otherwise).
 DesignKind parse_design(const std::string& name);
 const char* design_name(DesignKind k);
 

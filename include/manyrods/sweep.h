@@ -58,6 +58,7 @@ struct Sweep {
   std::vector<std::vector<double>> points;  // [variations][parameters]
   std::vector<int> first_rod;               // [variations + 1] rod ranges
   std::vector<Probe> probes;                // one per variation: its first rod's tip, all its rods
+  int sensitivity_base = 0;                 // a saltelli design's N (its variations: A, B, A_B^(i)); 0: none
 };
 
 // Parses the scene once per variation with the overrides applied (each is
@@ -114,12 +115,27 @@ std::vector<h5::Column> sweep_parameters(const Sweep& sw);
 const std::vector<std::string>& sweep_statistic_names();
 std::vector<h5::Column> sweep_statistics(const std::vector<h5::Column>& summary);
 
+// Sobol' sensitivity indices of every summary column from a saltelli design
+// (include/manyrods/sampling.h) of N base points over d parameters, with
+// f_A, f_B, f_ABi the column's values on A, B and A_B^(i):
+//   first order  S_i  = mean((f_B − f̄)(f_ABi − f_A)) / V (Saltelli et al. 2010;
+//                       f centred by its mean f̄ over A and B, which leaves
+//                       the estimate unbiased and removes the f̄² from its
+//                       variance)
+//   total        ST_i = mean((f_A − f_ABi)²) / (2 V)     (Jansen 1999)
+// V the variance of f over A and B together; rows where any of the three is
+// NaN are left out. One column per summary column, its values
+// [S_1 … S_d, ST_1 … ST_d] (sensitivity_names); NaN where V = 0.
+std::vector<std::string> sensitivity_names(const std::vector<std::string>& parameters);
+std::vector<h5::Column> sweep_sensitivity(const std::vector<h5::Column>& summary, int base, int dims);
+
 // Runs the sweep (new, or continued from its file's checkpoint `restart`)
 // into opt.output with /sweep (parameters, summary, each variation's first
 // rod); opt.probes and opt.before_finish are set here.
 struct SweepRun {
   RunResult run;
   std::vector<h5::Column> parameters, summary, statistics;
+  std::vector<h5::Column> sensitivity;  // saltelli designs
 };
 SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart = nullptr);
 
@@ -161,12 +177,15 @@ struct ChunkedSweep {
 ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& source, std::vector<std::string> names,
                                std::vector<std::vector<double>> points, int chunk, RunOptions opt,
                                const std::function<void(int, int, const RunResult*)>& on_chunk = {},
-                               const Shards& shards = {});
+                               const Shards& shards = {}, int sensitivity_base = 0);
 
 // variation, parameters..., summary... (written to path.tmp, then renamed).
 void write_csv(const std::string& path, const std::vector<h5::Column>& parameters,
                const std::vector<h5::Column>& summary);
 // observable, then one column per statistic (sweep_statistics), likewise.
 void write_statistics_csv(const std::string& path, const std::vector<h5::Column>& statistics);
+// observable, parameter, S1, ST (sweep_sensitivity), likewise.
+void write_sensitivity_csv(const std::string& path, const std::vector<h5::Column>& sensitivity,
+                           const std::vector<std::string>& parameters);
 
 }  // namespace manyrods::scene

@@ -743,6 +743,12 @@ NB_MODULE(_core, m) {
             d["summary"] = columns(r.summary);
             d["statistics"] = columns(r.statistics);  // per observable, in the order of statistic_names
             d["statistic_names"] = manyrods::scene::sweep_statistic_names();
+            if (!r.sensitivity.empty()) {  // saltelli: per observable, [S1 …, ST …] of the parameters
+              d["sensitivity"] = columns(r.sensitivity);
+              std::vector<std::string> keys;
+              for (const auto& v : vs) keys.push_back(v.key);
+              d["sensitivity_names"] = manyrods::scene::sensitivity_names(keys);
+            }
             d["run"] = run_result(r.run);
             return d;
           },
