@@ -13,6 +13,8 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <vector>
 
@@ -58,25 +60,72 @@ inline void apply_dofs(RodBatch<double>& b, const RodDofs& d, const Eigen::Vecto
   }
 }
 
+// The cell of dof `col` (node j and element j share cell j: their slot less
+// the rod's first) and its component (0–2 a node's x, y, z; 3–5 an
+// element's rotation).
+inline int dof_cell(const RodDofs& d, int col, int first) {
+  const int nn = 3 * int(d.node_slots.size());
+  return (col < nn ? d.node_slots[col / 3] : d.elem_slots[(col - nn) / 3]) - first;
+}
+
+// Moves dof `col` by h: what apply_dofs does with h in that entry and zeros
+// elsewhere, touching that unknown only.
+inline void apply_dof(RodBatch<double>& b, const RodDofs& d, int col, double h) {
+  const int nn = 3 * int(d.node_slots.size());
+  if (col < nn) {
+    b.state.node_x[col % 3][d.node_slots[col / 3]] += h;
+    return;
+  }
+  const int k = d.elem_slots[(col - nn) / 3], a = (col - nn) % 3;
+  const vec3<double> phi = {a == 0 ? h : 0.0, a == 1 ? h : 0.0, a == 2 ? h : 0.0};
+  mat3<double> q;
+  for (int j = 0; j < 9; ++j) q.m[j] = b.state.elem_Q[j][k];
+  q = mul(rotation_exp(-phi), q);
+  for (int j = 0; j < 9; ++j) b.state.elem_Q[j][k] = q.m[j];
+}
+
 // ∂r/∂q by central differences: steps h_rel·length for positions, h_rel
-// (rad) for rotations. The state is restored exactly after each column.
+// (rad) for rotations. The residual of cell r (its node's force, its
+// element's couple) depends only on the unknowns of cells r − 2 … r + 2
+// (node forces on the strains of the two elements beside the node; element
+// couples on the curvatures of the two joints beside the element, which
+// reach one element further): columns of one component whose cells are
+// kBand apart are perturbed together, and each row takes the difference of
+// the one column within its reach — the same numbers as one column at a
+// time (tests/test_statics.cpp), with 2 × 6 × kBand residuals instead of 2
+// per unknown. The state is restored exactly after each group.
 template <Terms kT>
 Eigen::MatrixXd residual_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
-                                  std::array<Array<double>, 3>& c, double length, double h_rel) {
+                                  std::array<Array<double>, 3>& c, double length, double h_rel,
+                                  bool grouped = true) {
+  constexpr int kReach = 2, kBand = 2 * kReach + 1;
   const int m = d.size(), nn = 3 * int(d.node_slots.size());
-  Eigen::MatrixXd J(m, m);
-  for (int col = 0; col < m; ++col) {
-    const double h = col < nn ? h_rel * length : h_rel;
-    Eigen::VectorXd e = Eigen::VectorXd::Zero(m);
-    e[col] = h;
-    apply_dofs(b, d, e);
+  const int first = std::min(d.node_slots.empty() ? 1 << 30 : d.node_slots[0], d.elem_slots.empty() ? 1 << 30 : d.elem_slots[0]);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(m, m);
+  std::vector<int> cell(static_cast<std::size_t>(m)), group;
+  for (int i = 0; i < m; ++i) cell[std::size_t(i)] = dof_cell(d, i, first);
+  const int groups = grouped ? 6 * kBand : m;
+  for (int gi = 0; gi < groups; ++gi) {
+    group.clear();
+    for (int col = 0; col < m; ++col) {
+      const int comp = col < nn ? col % 3 : 3 + (col - nn) % 3;
+      if (grouped ? (comp == gi / kBand && cell[std::size_t(col)] % kBand == gi % kBand) : col == gi) group.push_back(col);
+    }
+    if (group.empty()) continue;
+    auto shift = [&](double s) {
+      for (int col : group) apply_dof(b, d, col, s * (col < nn ? h_rel * length : h_rel));
+    };
+    shift(1);
     const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c);
-    e[col] = -2 * h;
-    apply_dofs(b, d, e);
+    shift(-2);
     const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c);
-    e[col] = h;
-    apply_dofs(b, d, e);
-    J.col(col) = (rp - rm) / (2 * h);
+    shift(1);
+    for (int col : group) {
+      const double h = col < nn ? h_rel * length : h_rel;
+      for (int row = 0; row < m; ++row)
+        if (!grouped || std::abs(cell[std::size_t(row)] - cell[std::size_t(col)]) <= kReach)
+          J(row, col) = (rp[row] - rm[row]) / (2 * h);
+    }
   }
   return J;
 }
@@ -126,8 +175,15 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
       for (int it = 0; it < opt.max_newton_iterations; ++it) {
         const Eigen::VectorXd r0 = detail::static_residual<kStatic>(b, d, f, c);
         const Eigen::MatrixXd J = detail::residual_jacobian<kStatic>(b, d, f, c, length, 1e-6);
-        // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r.
-        Eigen::VectorXd dq = J.colPivHouseholderQr().solve(-r0);
+        // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
+        // by LU with partial pivoting (a third of a pivoted QR's work); where
+        // J is singular or nearly so (a rod free to move rigidly) the LU's
+        // solution does not solve the system, and the pivoted QR, which
+        // copes with the rank deficiency, takes over.
+        const Eigen::PartialPivLU<Eigen::MatrixXd> lu(J);
+        Eigen::VectorXd dq = lu.solve(-r0);
+        if (!dq.allFinite() || (J * dq + r0).norm() > 1e-8 * (r0.norm() + J.norm() * dq.norm()))
+          dq = J.colPivHouseholderQr().solve(-r0);
         const double upd = std::max(dq.head(nn).cwiseAbs().maxCoeff() / length,
                                     dq.tail(m - nn).cwiseAbs().maxCoeff());
         // Trust region: a full Newton step far from the solution can jump to
