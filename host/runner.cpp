@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -98,10 +99,12 @@ class SceneRun {
     if (b_.state.steps % per_frame_ == 0 && !opt_.resume) write_frame(*w, scene_energies(b_, choice_));
     if (restart_ && !opt_.probes.empty()) restore_probes(*restart_);
     else sample_probes(true);
+    if (!opt_.probes.empty()) start_ = b_.state;
     monitor_.emplace(s_, b_, scene_energies(b_, choice_), restart_ ? restart_->validity_energy0 : NAN,
                      restart_ ? restart_->validity_scale : NAN);
     loop(w);
     res_.validity = monitor_->summary(b_.rod_count());
+    res_.validity.insert(res_.validity.end(), failures_.begin(), failures_.end());
     const h5::Checkpoint last = checkpoint(*w);
     w->write_checkpoint(last);
     if (opt_.before_finish) opt_.before_finish(*w, probes_);
@@ -297,7 +300,7 @@ class SceneRun {
     while (step < total_) {
       const std::int64_t next = std::min({round_up(step, kSampleSteps), round_up(step, per_frame_), total_});
       const std::int64_t prev = step;
-      advance_scene(b_, choice_, T(res_.dt), next - step, ex);
+      advance_to(next, ex);
       step = next;
       const Energies e = scene_energies(b_, choice_);
       dissipated_ += 0.5 * (last_rate_ + e.dissipation) * (double(next - prev) * res_.dt);
@@ -327,6 +330,70 @@ class SceneRun {
     res_.element_steps_per_s = double(step - res_.first_step) * double(res_.elements) / std::max(res_.wall_s, 1e-9);
     res_.stages = profile.total();
     res_.state_hash = state_hash(b_);
+  }
+
+  // Steps to `next`. In a sweep (probes), a variation whose state stops
+  // being finite is frozen (freeze_failed) and the others go on; a plain
+  // run throws NonFiniteError.
+  void advance_to(std::int64_t next, const Exec& ex) {
+    while (b_.state.steps < next) {
+      try {
+        advance_scene(b_, choice_, T(res_.dt), next - b_.state.steps, ex);
+      } catch (const NonFiniteError&) {
+        if (opt_.probes.empty() || !freeze_failed()) throw;
+      }
+    }
+  }
+
+  // The variations with a non-finite entry (advance stopped at the first
+  // such step): their rods' slots back to their state at the run's start,
+  // at rest, every unknown fixed (zero inverse masses), so that they no
+  // longer move; ProbeRecord::failed_at and a line in the run's validity
+  // summary say so. Rods do not touch across variations (sweeps refuse
+  // rod–rod contact), so the others are unaffected. false: none found.
+  bool freeze_failed() {
+    const State<T>& s = b_.state;
+    auto finite_slot = [&](int k) {
+      for (int a = 0; a < 3; ++a)
+        if (!std::isfinite(s.node_x[a][k]) || !std::isfinite(s.node_v[a][k]) || !std::isfinite(s.elem_w[a][k]))
+          return false;
+      for (int a = 0; a < 9; ++a)
+        if (!std::isfinite(s.elem_Q[a][k])) return false;
+      return true;
+    };
+    auto slots = [&](int r) {  // [first, last) of rod r, its ghosts included
+      const int first = b_.rods[std::size_t(r)].offset;
+      return std::pair<int, int>{first, r + 1 < b_.rod_count() ? b_.rods[std::size_t(r) + 1].offset : b_.slots()};
+    };
+    bool any = false;
+    for (std::size_t p = 0; p < opt_.probes.size(); ++p) {
+      const Probe& pr = opt_.probes[p];
+      bool bad = false;
+      for (int r = pr.rods_begin; r < pr.rods_end && !bad; ++r)
+        for (int k = slots(r).first; k < slots(r).second && !bad; ++k) bad = !finite_slot(k);
+      if (!bad) continue;
+      any = true;
+      for (int r = pr.rods_begin; r < pr.rods_end; ++r)
+        for (int k = slots(r).first; k < slots(r).second; ++k) {
+          for (int a = 0; a < 3; ++a) {
+            b_.state.node_x[a][k] = start_.node_x[a][k];
+            b_.state.node_v[a][k] = T(0);
+            b_.state.elem_w[a][k] = T(0);
+            b_.model.elem_inv_inertia[a][k] = T(0);
+          }
+          for (int a = 0; a < 9; ++a) b_.state.elem_Q[a][k] = start_.elem_Q[a][k];
+          if (b_.state.node_xc[0].size() != 0)
+            for (int a = 0; a < 3; ++a) b_.state.node_xc[a][k] = T(0);
+          b_.model.node_inv_mass[k] = T(0);
+        }
+      probes_[p].failed_at = b_.state.time;
+      std::ostringstream os;
+      os << "variation " << p << " (rods " << pr.rods_begin << "-" << pr.rods_end - 1
+         << ") stopped being finite at t = " << b_.state.time
+         << " s: frozen from there on, its summary is NaN; the other variations went on";
+      failures_.push_back(os.str());
+    }
+    return any;
   }
 
   // The validity monitor at a sample point: a new kind of violation is
@@ -386,6 +453,8 @@ class SceneRun {
   double duration_ = 0;
   std::int64_t total_ = 0, per_frame_ = 1, frames_before_ = 0;
   std::optional<ValidityMonitor<T>> monitor_;
+  State<T> start_;                     // the state at the run's start (a sweep's failed variations return to it)
+  std::vector<std::string> failures_;  // a line per failed variation
   const bool parts_ = opt_.checkpoint_every > 0;
   int part_ = 0;  // parts begun
   std::int64_t part_frames_ = 0;  // frames in the parts this run closed

@@ -416,7 +416,8 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
                                {"cycles", {}},
                                {"energy_final_J", {}},
                                {"dissipated_J", {}},
-                               {"max_strain", {}}};
+                               {"max_strain", {}},
+                               {"failed_at_s", {}}};
   for (std::size_t i = 0; i < rec.size(); ++i) {
     const ProbeRecord& r = rec[i];
     const Vec3 rest = sw.scene.rods[sw.probes[i].tip_rod].nodes.back();
@@ -457,6 +458,9 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
     c[8].values.push_back(r.final_energy.total());
     c[9].values.push_back(r.dissipated);
     c[10].values.push_back(r.max_strain);
+    c[11].values.push_back(r.failed_at);
+    if (std::isfinite(r.failed_at))  // frozen since: no observable of it means anything
+      for (std::size_t k = 0; k + 1 < c.size(); ++k) c[k].values.back() = kNaN;
   }
   return c;
 }

@@ -466,6 +466,47 @@ TEST(Cli, SweepOfALogNormalModulusGivesANormalLogPeriod) {
     }
 }
 
+TEST(Cli, ASweepVariationThatBlowsUpIsReportedAndTheOthersGoOn) {
+  // Three undamped cantilevers at one fixed step, forced (--force-dt); the
+  // middle one 3,000× stiffer, far beyond its explicit limit: it stops being
+  // finite within milliseconds. It is frozen and reported (exit status 3,
+  // a validity line, failed_at_s, NaN summary); the other two give, to the
+  // bit, what a sweep of them alone gives (the rods of a sweep are
+  // independent).
+  std::string text = cantilever(20, 0.5, 0.05);
+  text = text.substr(0, text.find("damping ="));
+  text.replace(text.find("dt = \"auto\""), 11, "dt = 1.5e-4");
+  const std::string scene = write_scene("blowup.toml", text);
+  const Result r = cli("sweep " + scene + " --vary rods.0.material.youngs_modulus=1e6,3e9,2e6 --force-dt -o " +
+                       path("blowup.h5") + " --csv " + path("blowup.csv"));
+  EXPECT_EQ(r.status, 3) << r.err;
+  expect_contains(r.err, "variation 1 (rods 1-1) stopped being finite");
+  const Result alone = cli("sweep " + scene + " --vary rods.0.material.youngs_modulus=1e6,2e6 --force-dt -o " +
+                           path("alone.h5") + " --csv " + path("alone.csv"));
+  ASSERT_EQ(alone.status, 0) << alone.err;
+  auto rows = [](const std::string& p) {
+    std::ifstream in(p);
+    std::vector<std::string> out;
+    for (std::string line; std::getline(in, line);) out.push_back(line.substr(line.find(',') + 1));
+    return out;
+  };
+  const auto all = rows(path("blowup.csv")), two = rows(path("alone.csv"));
+  ASSERT_EQ(all.size(), 4u);
+  ASSERT_EQ(two.size(), 3u);
+  EXPECT_EQ(all[1], two[1]);
+  EXPECT_EQ(all[3], two[2]);
+  const h5::Reader rd(path("blowup.h5"));
+  for (const h5::Column& c : rd.output().sweep_summary) {
+    if (c.name == "failed_at_s") {
+      EXPECT_TRUE(std::isnan(c.values[0]) && std::isnan(c.values[2]));
+      EXPECT_GT(c.values[1], 0.0);
+      EXPECT_LT(c.values[1], 0.5);
+    } else {
+      EXPECT_TRUE(std::isnan(c.values[1])) << c.name;
+    }
+  }
+}
+
 TEST(Cli, SaltelliSweepGivesTheSobolIndicesOfThePeriod) {
   // T ∝ √(ρ/E): with ln E and ln ρ normal (σ 0.2 and 0.1), ln T = ½ ln ρ −
   // ½ ln E + c splits its variance 0.8 : 0.2 between E and ρ, without

@@ -18,6 +18,7 @@
 #include <csignal>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -45,6 +46,9 @@ struct ProbeRecord {
   double max_strain = 0;     // over its rods, over the sample points
   Energies final_energy;     // summed over its rods at the end
   double dissipated = 0;     // ∫ 2·D_v dt over its rods, J
+  // the time its state stopped being finite (NaN: it did not): its rods
+  // were then frozen at their start and the run went on with the others
+  double failed_at = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct RunOptions {
