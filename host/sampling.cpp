@@ -144,6 +144,16 @@ const char* design_name(DesignKind k) {
   return "?";
 }
 
+Design make_design(const std::string& kind, int samples, std::uint64_t seed) {
+  Design d{samples > 0 ? DesignKind::mc : DesignKind::grid, samples, seed};
+  if (!kind.empty()) d.kind = parse_design(kind);
+  if (d.kind == DesignKind::grid && samples > 0)
+    throw SceneError("--design grid runs every combination of the --vary lists; --samples applies to mc, lhs, sobol, saltelli");
+  if (d.kind != DesignKind::grid && samples < 1)
+    throw SceneError(std::string("--design ") + design_name(d.kind) + " needs --samples N");
+  return d;
+}
+
 std::vector<std::vector<double>> unit_points(const Design& des, int dims) {
   if (des.kind == DesignKind::grid) throw SceneError("the grid design has no unit points");
   if (des.samples < 1) throw SceneError(std::string("--design ") + design_name(des.kind) + ": give --samples N >= 1");

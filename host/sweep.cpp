@@ -159,7 +159,7 @@ double Vary::at(double u) const {
 
 std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, int samples,
                                               std::uint64_t seed) {
-  return sweep_points(vary, samples > 0 ? Design{DesignKind::mc, samples, seed} : Design{});
+  return sweep_points(vary, make_design("", samples, seed));
 }
 
 std::vector<std::vector<double>> sweep_points(const std::vector<Vary>& vary, const Design& design) {
@@ -217,7 +217,7 @@ Sweep make_sweep(const std::string& text, const std::string& source, const std::
 
 Sweep make_sweep(const std::string& text, const std::string& source, const std::vector<Vary>& vary,
                  int samples, std::uint64_t seed) {
-  return make_sweep(text, source, vary, samples > 0 ? Design{DesignKind::mc, samples, seed} : Design{});
+  return make_sweep(text, source, vary, make_design("", samples, seed));
 }
 
 Sweep sweep_of_checkpoint(const h5::Checkpoint& c, const std::string& path) {

@@ -657,12 +657,7 @@ int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& d
 int command_sweep(const Options& o) {
   std::vector<Vary> vs;
   for (const std::string& v : o.vary) vs.push_back(parse_vary(v));
-  Design design{o.samples > 0 ? DesignKind::mc : DesignKind::grid, o.samples, o.seed};
-  if (!o.design.empty()) design.kind = parse_design(o.design);
-  if (design.kind == DesignKind::grid && o.samples > 0)
-    throw SceneError("--design grid runs every combination of the --vary lists; --samples applies to mc, lhs, sobol");
-  if (design.kind != DesignKind::grid && o.samples < 1)
-    throw SceneError(std::string("--design ") + design_name(design.kind) + " needs --samples N");
+  const Design design = make_design(o.design, o.samples, o.seed);
   RunOptions opt = run_options(o);
   opt.checkpoint_every = 0;  // sweeps are written in one piece (a checkpoint at the end, Ctrl-C, --until)
   opt.all_frames = o.frames == "all";

@@ -46,6 +46,10 @@ struct Design {
 // "grid", "mc", "lhs", "sobol" or "saltelli" (SceneError otherwise).
 DesignKind parse_design(const std::string& name);
 const char* design_name(DesignKind k);
+// The design a sweep asked for: `kind` as parse_design, or empty for the
+// default (grid without samples, mc with them); SceneError for a grid with
+// samples or a sampled design without them.
+Design make_design(const std::string& kind, int samples, std::uint64_t seed);
 
 // [samples][dims] points in [0, 1) (grid: SceneError; it has no unit points).
 std::vector<std::vector<double>> unit_points(const Design& d, int dims);

@@ -727,9 +727,7 @@ NB_MODULE(_core, m) {
               throw manyrods::scene::SceneError("sweep: frames = '" + frames + "': expected 'ends' or 'all'");
             std::vector<manyrods::scene::Vary> vs;
             for (const std::string& v : vary) vs.push_back(manyrods::scene::parse_vary(v));
-            using manyrods::scene::DesignKind;
-            manyrods::scene::Design des{samples > 0 ? DesignKind::mc : DesignKind::grid, samples, seed};
-            if (design) des.kind = manyrods::scene::parse_design(*design);
+            const manyrods::scene::Design des = manyrods::scene::make_design(design.value_or(""), samples, seed);
             manyrods::scene::SweepRun r;
             {
               nb::gil_scoped_release release;
