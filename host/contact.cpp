@@ -476,7 +476,7 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
 }
 
 template <class T>
-ContactStats contact_stats(const RodBatch<T>& b) {
+ContactStats contact_stats(const RodBatch<T>& b, int rod_begin, int rod_end) {
   ContactStats st;
   const ContactData<T>& c = b.contact;
   if (!c.on) return st;
@@ -493,7 +493,8 @@ ContactStats contact_stats(const RodBatch<T>& b) {
       st.element = e;
     }
   };
-  for (int r = 0; r < b.rod_count(); ++r)
+  if (rod_end < 0) rod_end = b.rod_count();
+  for (int r = rod_begin; r < rod_end; ++r)
     for (int e = 0; e < b.elements(r); ++e) {
       const int k = b.elem_index(r, e);
       const vec3<T> x0 = load3(s.node_x, k), x1 = load3(s.node_x, k + 1);
@@ -513,7 +514,7 @@ ContactStats contact_stats(const RodBatch<T>& b) {
   template void place_colliders<T>(const ContactData<T>&, double, double, ColliderFrame<T>*); \
   template void set_contact<T>(RodBatch<T>&, const ContactSpec&);                             \
   template void update_neighbours<T>(RodBatch<T>&, T, const Exec&);                           \
-  template ContactStats contact_stats<T>(const RodBatch<T>&);
+  template ContactStats contact_stats<T>(const RodBatch<T>&, int, int);
 MANYRODS_CONTACT_INSTANTIATE(float)
 MANYRODS_CONTACT_INSTANTIATE(double)
 

@@ -412,6 +412,12 @@ void Writer::write_checkpoint(const Checkpoint& c) {
     put_d("max_strain", c.probe_max_strain, {p});
     put_d("dissipated", c.probe_dissipated, {p});
     put_d("dissipation_rate", c.probe_rate, {p});
+    if (!c.probe_observed.empty() || !c.probe_observed_last.empty()) {
+      if (c.probe_observed.size() % p != 0 || c.probe_observed_last.size() % p != 0)
+        fail(w.tmp, "checkpoint: inconsistent observable records");
+      put_d("observed", c.probe_observed, {p, c.probe_observed.size() / p});
+      put_d("observed_last", c.probe_observed_last, {p, c.probe_observed_last.size() / p});
+    }
   }
 }
 
@@ -419,7 +425,7 @@ namespace {
 // /loc/name: one dataset per column, their names in the attribute "order".
 Id column_group(hid_t loc, const char* name, const std::vector<Column>& cols, const std::string& path) {
   Id sg = checked(H5Gcreate2(loc, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, path,
-                  std::string("cannot create /sweep/") + name);
+                  std::string("cannot create the group ") + name);
   std::string order;
   for (const Column& c : cols) {
     write_vector(sg.get(), c.name.c_str(), H5T_NATIVE_DOUBLE, c.values, path);
@@ -453,6 +459,10 @@ void Writer::write_sweep(const std::vector<Column>& parameters, const std::vecto
   column_group(g.get(), "summary", summary, w.tmp);
 }
 
+void Writer::write_observables(const std::vector<Column>& columns) {
+  column_group(impl_->file.get(), "observables", columns, impl_->tmp);
+}
+
 std::int64_t Writer::frames() const { return impl_->frames; }
 const std::string& Writer::path() const { return impl_->path; }
 
@@ -466,6 +476,44 @@ void Writer::finish() {
 }
 
 // ---- reading -----------------------------------------------------------------
+
+namespace {
+// /name [frames, Σ rows, …] (width = 3: [.., 3]; 9: [.., 3, 3]), a virtual
+// dataset whose rows [o_k, o_k + rows_k) are /name of file k (a path
+// relative to the index's folder, where HDF5 looks for it), NaN where a
+// file is missing.
+void virtual_concat(hid_t loc, const char* name, hid_t type, std::size_t frames, const std::vector<std::string>& files,
+                    const std::vector<std::int64_t>& rows, int width, const std::string& path) {
+  hsize_t total = 0;
+  for (std::int64_t r : rows) total += hsize_t(r);
+  std::vector<hsize_t> dims{hsize_t(frames), total, 3};
+  if (width == 9) dims.push_back(3);
+  const Id vs = checked(H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose, path,
+                        std::string("cannot create the dataspace of ") + name);
+  const Id pl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  const double nan = NAN;
+  const float nanf = NAN;
+  check(H5Pset_fill_value(pl.get(), type, type == H5T_NATIVE_FLOAT ? static_cast<const void*>(&nanf) : &nan), path,
+        std::string("cannot set the fill value of ") + name);
+  hsize_t at = 0;
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    std::vector<hsize_t> src = dims, start(dims.size(), 0);
+    src[1] = hsize_t(rows[k]);
+    start[1] = at;
+    at += hsize_t(rows[k]);
+    if (rows[k] == 0) continue;
+    const Id ss = checked(H5Screate_simple(int(src.size()), src.data(), nullptr), H5Sclose, path,
+                          std::string("cannot create a source dataspace of ") + name);
+    check(H5Sselect_hyperslab(vs.get(), H5S_SELECT_SET, start.data(), nullptr, src.data(), nullptr), path,
+          std::string("cannot select the rows of ") + files[k] + " in " + name);
+    check(H5Pset_virtual(pl.get(), vs.get(), files[k].c_str(), name, ss.get()), path,
+          std::string("cannot map ") + files[k] + " into " + name);
+  }
+  H5Sselect_none(vs.get());
+  checked(H5Dcreate2(loc, name, type, vs.get(), H5P_DEFAULT, pl.get(), H5P_DEFAULT), H5Dclose, path,
+          std::string("cannot create the virtual dataset ") + name);
+}
+}  // namespace
 
 void write_sweep_index(const std::string& path, const SweepIndex& x) {
   const std::string tmp = path + ".tmp";
@@ -495,6 +543,17 @@ void write_sweep_index(const std::string& path, const SweepIndex& x) {
     }
     attr_string(g.get(), "chunk_files", lines(x.chunk_files), tmp);
     write_vector(g.get(), "chunk_first_variation", H5T_NATIVE_INT64, x.chunk_first, tmp);
+    if (!x.chunk_nodes.empty()) {
+      if (x.chunk_nodes.size() != x.chunk_files.size() || x.chunk_elements.size() != x.chunk_files.size())
+        fail(tmp, "sweep index: chunk sizes do not match the chunk files");
+      write_vector(f.get(), "time", H5T_NATIVE_DOUBLE, x.time, tmp);
+      write_vector(f.get(), "node_offsets", H5T_NATIVE_INT64, x.node_offsets, tmp);
+      write_vector(f.get(), "element_offsets", H5T_NATIVE_INT64, x.element_offsets, tmp);
+      const hid_t type = x.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
+      virtual_concat(f.get(), "node_position", type, x.time.size(), x.chunk_files, x.chunk_nodes, 3, tmp);
+      if (x.directors)
+        virtual_concat(f.get(), "element_directors", type, x.time.size(), x.chunk_files, x.chunk_elements, 9, tmp);
+    }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
@@ -579,6 +638,13 @@ Checkpoint read_checkpoint(const std::string& path) {
       const auto d = get_d(name, *v, 1);
       if (d[0] != dt_dims[0])
         fail(path, std::string("/checkpoint/probes/") + name + " has " + std::to_string(d[0]) + " entries, " +
+                       std::to_string(dt_dims[0]) + " probes expected");
+    }
+    for (auto [name, v] : {std::pair{"observed", &c.probe_observed}, std::pair{"observed_last", &c.probe_observed_last}}) {
+      if (H5Lexists(pg.get(), name, H5P_DEFAULT) <= 0) continue;
+      const auto d = get_d(name, *v, 2);
+      if (d[0] != dt_dims[0])
+        fail(path, std::string("/checkpoint/probes/") + name + " has " + std::to_string(d[0]) + " rows, " +
                        std::to_string(dt_dims[0]) + " probes expected");
     }
   }
@@ -667,15 +733,17 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   const auto dims = dataset_dims(r.pos.get());
   const std::vector<hsize_t> want{hsize_t(r.frames), hsize_t(o.nodes), 3};
   if (dims != want) fail(path, "/node_position has shape " + dims_str(dims) + ", expected " + dims_str(want));
+  // a group of columns (column_group), in the order of its attribute
+  auto group_columns = [&](const std::string& gp, std::vector<Column>& out) {
+    const Id g = checked(H5Gopen2(f, gp.c_str(), H5P_DEFAULT), H5Gclose, path, "missing group /" + gp);
+    std::stringstream ss(read_attr_string(g.get(), "order", path, "/" + gp + "."));
+    for (std::string n; std::getline(ss, n);)
+      out.push_back({n, read_vector<double>(g.get(), n.c_str(), H5T_NATIVE_DOUBLE, path)});
+  };
+  if (H5Lexists(f, "observables", H5P_DEFAULT) > 0) group_columns("observables", o.observables);
   if (H5Lexists(f, "sweep", H5P_DEFAULT) > 0) {
     o.has_sweep = true;
-    auto cols = [&](const char* name, std::vector<Column>& out) {
-      const std::string gp = std::string("sweep/") + name;
-      const Id g = checked(H5Gopen2(f, gp.c_str(), H5P_DEFAULT), H5Gclose, path, "missing group /" + gp);
-      std::stringstream ss(read_attr_string(g.get(), "order", path, "/" + gp + "."));
-      for (std::string n; std::getline(ss, n);)
-        out.push_back({n, read_vector<double>(g.get(), n.c_str(), H5T_NATIVE_DOUBLE, path)});
-    };
+    auto cols = [&](const char* name, std::vector<Column>& out) { group_columns(std::string("sweep/") + name, out); };
     cols("parameters", o.sweep_parameters);
     cols("summary", o.sweep_summary);
     {

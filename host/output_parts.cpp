@@ -73,6 +73,9 @@ std::int64_t merge_parts(const std::vector<std::string>& parts, const std::strin
     }
   }
   w.write_checkpoint(last);
+  // a run's observables, written into its last part
+  const std::vector<h5::Column> observables = h5::Reader(parts.back()).output().observables;
+  if (!observables.empty()) w.write_observables(observables);
   w.finish();
   std::error_code ec;
   fs::remove_all(parts_dir(output), ec);

@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -97,7 +98,7 @@ class SceneRun {
     // the uninterrupted run from there on); not for a resumed run, whose
     // last part holds it.
     if (b_.state.steps % per_frame_ == 0 && !opt_.resume) write_frame(*w, scene_energies(b_, choice_));
-    if (restart_ && !opt_.probes.empty()) restore_probes(*restart_);
+    if (restart_ && !probe_list_.empty()) restore_probes(*restart_);
     else sample_probes(true);
     if (!opt_.probes.empty()) start_ = b_.state;
     monitor_.emplace(s_, b_, scene_energies(b_, choice_), restart_ ? restart_->validity_energy0 : NAN,
@@ -108,6 +109,12 @@ class SceneRun {
     const h5::Checkpoint last = checkpoint(*w);
     w->write_checkpoint(last);
     if (opt_.before_finish) opt_.before_finish(*w, probes_);
+    if (opt_.probes.empty() && !probes_.empty()) {  // a run's own observables
+      const std::vector<std::string> cols = observable_columns(s_.observables);
+      const std::vector<double> v = observed_values(probes_[0].observed);
+      for (std::size_t k = 0; k < cols.size(); ++k) res_.observables.push_back({cols[k], {v[k]}});
+      w->write_observables(res_.observables);
+    }
     w->finish();
     if (parts_) res_.frames = merge_parts(list_parts(opt_.output), opt_.output, layout(), info(), last);
     res_.probes = std::move(probes_);
@@ -123,8 +130,16 @@ class SceneRun {
     total_ = std::max<std::int64_t>(1, std::llround(duration_ / res_.dt));
     per_frame_ = std::max<std::int64_t>(1, std::llround(s_.sim.output_interval / res_.dt));
     res_.total_steps = total_;
-    probes_.resize(opt_.probes.size());
-    probe_rate_.assign(opt_.probes.size(), 0);
+    probes_.resize(probe_list_.size());
+    probe_rate_.assign(probe_list_.size(), 0);
+    for (ProbeRecord& r : probes_) r.observed = start_observed(s_.observables);
+    observation_steps_ = observation_steps(s_.observables, res_.dt);
+  }
+
+  // The first step after `step` at which an observable is wanted (else the last).
+  std::int64_t next_observation(std::int64_t step) const {
+    const auto it = std::upper_bound(observation_steps_.begin(), observation_steps_.end(), step);
+    return it == observation_steps_.end() ? total_ : *it;
   }
 
   void restore(const h5::Checkpoint& c) {
@@ -218,14 +233,16 @@ class SceneRun {
                                 s_.has_contact);
   }
 
-  // Each probe's tip, strain maximum and dissipation integral at this sample point.
+  // Each probe's tip, strain maximum, dissipation integral and observables
+  // at this sample point.
   void sample_probes(bool first) {
-    for (std::size_t i = 0; i < opt_.probes.size(); ++i) {
-      const Probe& p = opt_.probes[i];
+    for (std::size_t i = 0; i < probe_list_.size(); ++i) {
+      const Probe& p = probe_list_[i];
       ProbeRecord& rec = probes_[i];
       rec.time.push_back(b_.state.time);
       rec.tip.push_back(b_.position(p.tip_rod, b_.elements(p.tip_rod)));
       Energies e;
+      double strain = 0;  // the largest now
       for (int r = p.rods_begin; r < p.rods_end; ++r) {
         const Energies er = scene_energies(b_, choice_, r);
         e.kinetic += er.kinetic;
@@ -233,24 +250,62 @@ class SceneRun {
         e.potential += er.potential;
         e.dissipation += er.dissipation;
         const double st = max_strain(b_, r, s_.groups[s_.rod_group[r]].width);
-        if (!(st <= rec.max_strain)) rec.max_strain = st;
+        if (!(st <= strain)) strain = st;
       }
+      if (!(strain <= rec.max_strain)) rec.max_strain = strain;
       if (!first) {
         const std::size_t n = rec.time.size();
         rec.dissipated += 0.5 * (probe_rate_[i] + e.dissipation) * (rec.time[n - 1] - rec.time[n - 2]);
       }
       probe_rate_[i] = e.dissipation;
       rec.final_energy = e;
+      if (!s_.observables.empty())
+        observe(s_.observables, rec.observed, b_.state.time, b_.state.steps, res_.dt, first,
+                [&](std::size_t k) { return quantity(s_.observables[k], p, rec, e, strain); });
     }
+  }
+
+  // An observable's quantity now for probe p's rods (its `rod` counts from
+  // p.rods_begin); e, strain: their energies and largest strain now.
+  double quantity(const Observable& ob, const Probe& p, const ProbeRecord& rec, const Energies& e,
+                  double strain) const {
+    using Q = Observable::Quantity;
+    const int rod = ob.rod < 0 ? -1 : p.rods_begin + ob.rod;
+    switch (ob.quantity) {
+      case Q::position:
+      case Q::displacement: {
+        const int node = ob.node < 0 ? b_.elements(rod) + 1 + ob.node : ob.node;
+        Vec3 x = b_.position(rod, node);
+        if (ob.quantity == Q::displacement)
+          for (int a = 0; a < 3; ++a) x[a] -= s_.rods[std::size_t(rod)].nodes[std::size_t(node)][a];
+        return ob.component == Observable::norm ? std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) : x[ob.component];
+      }
+      case Q::strain:
+        return rod < 0 ? strain : max_strain(b_, rod, s_.groups[s_.rod_group[rod]].width);
+      case Q::energy: {
+        if (ob.component == Observable::dissipated) return rec.dissipated;
+        const Energies en = rod < 0 ? e : scene_energies(b_, choice_, rod);
+        return ob.component == Observable::kinetic   ? en.kinetic
+               : ob.component == Observable::elastic ? en.elastic
+               : ob.component == Observable::potential ? en.potential
+                                                       : en.total();
+      }
+      case Q::contacts:
+      case Q::penetration: {
+        const ContactStats cs = contact_stats(b_, rod < 0 ? p.rods_begin : rod, rod < 0 ? p.rods_end : rod + 1);
+        return ob.quantity == Q::contacts ? double(cs.contacts) : cs.max_penetration;
+      }
+    }
+    return std::numeric_limits<double>::quiet_NaN();
   }
 
   // A sweep continued: its records so far, as the uninterrupted run has them
   // at this step (which it sampled already).
   void restore_probes(const h5::Checkpoint& c) {
     if (c.probe_count == 0)
-      throw SceneError(s_.source + ": the checkpoint has no sweep records (/checkpoint/probes): a sweep file "
-                                   "written before sweeps could be continued; run the sweep again");
-    if (c.probe_count != std::int64_t(opt_.probes.size()))
+      throw SceneError(s_.source + ": the checkpoint has no sweep or observable records (/checkpoint/probes): a file "
+                                   "written before they could be continued; run it again");
+    if (c.probe_count != std::int64_t(probe_list_.size()))
       throw SceneError(s_.source + ": the checkpoint holds records of " + std::to_string(c.probe_count) +
                        " variations, the sweep has " + std::to_string(opt_.probes.size()));
     const std::size_t n = std::size_t(c.probe_samples);
@@ -270,7 +325,20 @@ class SceneRun {
       rec.dissipated = c.probe_dissipated[i];
       probe_rate_[i] = c.probe_rate[i];
     }
+    // the observables so far (the scene's own: the checkpoint carries its text)
+    const std::size_t m = rec_columns(), k = s_.observables.size();
+    if (c.probe_observed.size() != probes_.size() * m || c.probe_observed_last.size() != probes_.size() * k)
+      throw SceneError(s_.source + ": the checkpoint's observable records do not match the scene's " +
+                       std::to_string(k) + " [[observables]] (a damaged file?)");
+    for (std::size_t i = 0; i < probes_.size(); ++i) {
+      Observed& o = probes_[i].observed;
+      o.value.assign(c.probe_observed.begin() + std::ptrdiff_t(i * m), c.probe_observed.begin() + std::ptrdiff_t((i + 1) * m));
+      o.last.assign(c.probe_observed_last.begin() + std::ptrdiff_t(i * k),
+                    c.probe_observed_last.begin() + std::ptrdiff_t((i + 1) * k));
+      o.time = c.time;
+    }
   }
+  std::size_t rec_columns() const { return probes_.empty() ? 0 : probes_[0].observed.value.size(); }
 
   void write_frame(h5::Writer& w, const Energies& e) {
     gather_positions(b_, pos_);
@@ -298,14 +366,15 @@ class SceneRun {
     auto last_print = t0;
     std::int64_t step = b_.state.steps;
     while (step < total_) {
-      const std::int64_t next = std::min({round_up(step, kSampleSteps), round_up(step, per_frame_), total_});
+      const std::int64_t next =
+          std::min({round_up(step, kSampleSteps), round_up(step, per_frame_), total_, next_observation(step)});
       const std::int64_t prev = step;
       advance_to(next, ex);
       step = next;
       const Energies e = scene_energies(b_, choice_);
       dissipated_ += 0.5 * (last_rate_ + e.dissipation) * (double(next - prev) * res_.dt);
       last_rate_ = e.dissipation;
-      if (!opt_.probes.empty()) sample_probes(false);
+      if (!probe_list_.empty()) sample_probes(false);
       check_validity(e);
       // (the frame points stay sample points without all_frames: the probes'
       // samples, and so a sweep's summary, do not depend on it)
@@ -440,6 +509,8 @@ class SceneRun {
       c.probe_max_strain.push_back(rec.max_strain);
       c.probe_dissipated.push_back(rec.dissipated);
       c.probe_rate.push_back(probe_rate_[i]);
+      c.probe_observed.insert(c.probe_observed.end(), rec.observed.value.begin(), rec.observed.value.end());
+      c.probe_observed_last.insert(c.probe_observed_last.end(), rec.observed.last.begin(), rec.observed.last.end());
     }
     return c;
   }
@@ -460,8 +531,13 @@ class SceneRun {
   std::int64_t part_frames_ = 0;  // frames in the parts this run closed
   std::chrono::steady_clock::time_point part_start_;
   double dissipated_ = 0, last_rate_ = 0;
+  // the sweep's probes, or for a run with observables one over all its rods
+  const std::vector<Probe> probe_list_ =
+      !opt_.probes.empty() || s_.observables.empty() ? opt_.probes
+                                                     : std::vector<Probe>{{0, 0, int(s_.rods.size())}};
   std::vector<ProbeRecord> probes_;
   std::vector<double> probe_rate_;
+  std::vector<std::int64_t> observation_steps_;  // sorted
   std::vector<T> pos_, dir_;
 };
 

@@ -591,6 +591,103 @@ void parse_contact(const Ctx& ctx, const Table& top, Scene& sc) {
                                  "Position Verlet only: use integrator = \"position_verlet\"");
 }
 
+// ---- [[observables]] (include/manyrods/observables.h) -------------------------
+
+Observable parse_observable(const Ctx& ctx, const toml::table& ot, std::size_t i, const Scene& sc) {
+  using Q = Observable::Quantity;
+  using R = Observable::Reduce;
+  const Table t(ctx, ot, "observables." + std::to_string(i),
+                {"name", "quantity", "rod", "node", "component", "at", "reduce", "first_above", "first_below"});
+  Observable ob;
+  ob.name = t.text("name");
+  if (ob.name.empty() || ob.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_.-") !=
+                             std::string::npos)
+    t.fail("name", "\"" + ob.name + "\": use letters, digits, '_', '.' and '-' (it names a summary column)");
+  const std::string q = t.string("quantity", {"position", "displacement", "strain", "energy", "contacts", "penetration"});
+  ob.quantity = q == "position"       ? Q::position
+                : q == "displacement" ? Q::displacement
+                : q == "strain"       ? Q::strain
+                : q == "energy"       ? Q::energy
+                : q == "contacts"     ? Q::contacts
+                                      : Q::penetration;
+  const bool at_node = ob.quantity == Q::position || ob.quantity == Q::displacement;
+  const int rods = int(sc.rods.size());
+  // rod: an index, or "all" for the quantities summed or maximised over rods
+  ob.rod = at_node ? 0 : -1;
+  if (const toml::node* rn = t.get("rod")) {
+    if (rn->is_string() && rn->as_string()->get() == "all" && !at_node) ob.rod = -1;
+    else if (rn->is_integer()) ob.rod = int(t.integer("rod", 0, rods - 1));
+    else t.fail("rod", at_node ? "must be a rod index (0 to " + std::to_string(rods - 1) + ")"
+                               : "must be a rod index (0 to " + std::to_string(rods - 1) + ") or \"all\"");
+  }
+  if (at_node) {
+    const int nodes = int(sc.rods[std::size_t(ob.rod)].nodes.size());
+    if (t.has("node")) ob.node = int(t.integer("node", -nodes, nodes - 1));  // (negative: counted from the end when read)
+    if (ob.quantity == Q::position && !t.has("component")) t.missing("component", "\"x\", \"y\", \"z\" or \"norm\"");
+    if (t.has("component")) {
+      const std::string c = t.string("component", {"x", "y", "z", "norm"});
+      ob.component = c == "x" ? 0 : c == "y" ? 1 : c == "z" ? 2 : Observable::norm;
+    }
+  } else {
+    if (t.has("node")) t.fail("node", "applies to a position or displacement only");
+    if (ob.quantity == Q::energy) {
+      if (!t.has("component")) t.missing("component", "\"kinetic\", \"elastic\", \"potential\", \"total\" or \"dissipated\"");
+      const std::string c = t.string("component", {"kinetic", "elastic", "potential", "total", "dissipated"});
+      ob.component = c == "kinetic"     ? Observable::kinetic
+                     : c == "elastic"   ? Observable::elastic
+                     : c == "potential" ? Observable::potential
+                     : c == "total"     ? Observable::total
+                                        : Observable::dissipated;
+      if (ob.component == Observable::dissipated && ob.rod >= 0)
+        t.fail("component", "\"dissipated\" is integrated over all rods (of a sweep's variation): give rod = \"all\"");
+    } else if (t.has("component")) {
+      t.fail("component", "applies to a position, displacement or energy only");
+    }
+    if ((ob.quantity == Q::contacts || ob.quantity == Q::penetration) && !sc.has_contact)
+      t.fail("quantity", "\"" + q + "\" needs contact ([[colliders]] or [contact])");
+  }
+  // the reduction: exactly one of at, reduce, first_above, first_below
+  int given = 0;
+  for (const char* k : {"at", "reduce", "first_above", "first_below"}) given += t.has(k) ? 1 : 0;
+  if (given != 1)
+    throw SceneError(ctx.where(ot) + t.path + ": give exactly one of at = time(s), reduce = \"max\"|\"min\"|"
+                                             "\"max_abs\"|\"final\", first_above = value, first_below = value");
+  if (t.has("at")) {
+    ob.reduce = R::at;
+    const toml::node& an = *t.get("at");
+    if (const toml::array* a = an.as_array()) {
+      if (a->empty()) t.fail("at", "give at least one time");
+      for (std::size_t k = 0; k < a->size(); ++k) ob.times.push_back(t.as_number(*a->get(k), t.key("at") + "." + std::to_string(k)));
+    } else {
+      ob.times.push_back(t.number("at"));
+    }
+    for (std::size_t k = 0; k < ob.times.size(); ++k) {
+      if (!(ob.times[k] >= 0)) t.fail("at", "times must be >= 0 (got " + num(ob.times[k]) + ")");
+      for (std::size_t j = 0; j < k; ++j)
+        if (ob.times[j] == ob.times[k]) t.fail("at", "time " + num(ob.times[k]) + " is given twice");
+    }
+  } else if (t.has("reduce")) {
+    const std::string r = t.string("reduce", {"max", "min", "max_abs", "final"});
+    ob.reduce = r == "max" ? R::max : r == "min" ? R::min : r == "max_abs" ? R::max_abs : R::final;
+  } else {
+    ob.reduce = t.has("first_above") ? R::first_above : R::first_below;
+    ob.threshold = t.number(t.has("first_above") ? "first_above" : "first_below");
+  }
+  return ob;
+}
+
+void parse_observables(const Ctx& ctx, const Table& top, Scene& sc) {
+  const toml::node* on = top.get("observables");
+  if (!on) return;
+  const toml::array* a = on->as_array();
+  if (!a || !a->is_array_of_tables()) ctx.fail(*on, "observables", "must be one or more [[observables]] tables");
+  for (std::size_t i = 0; i < a->size(); ++i) sc.observables.push_back(parse_observable(ctx, *a->get(i)->as_table(), i, sc));
+  const std::vector<std::string> cols = observable_columns(sc.observables);
+  for (std::size_t i = 0; i < cols.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (cols[i] == cols[j]) throw SceneError(sc.source + ": observables: two observables give the column \"" + cols[i] + "\"");
+}
+
 struct Placement {
   std::vector<Vec3> starts, directions, normals;  // [count]
 };
@@ -1164,7 +1261,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   Scene sc;
   sc.source = source;
   sc.text = std::string(text);
-  const Table top(ctx, root, "", {"title", "simulation", "rods", "colliders", "contact", "fluid"});
+  const Table top(ctx, root, "", {"title", "simulation", "rods", "colliders", "contact", "fluid", "observables"});
   if (top.has("title")) (void)top.text("title");
   if (!top.has("simulation")) throw SceneError(source + ": simulation: missing table [simulation]");
   sc.sim = parse_simulation(top);
@@ -1194,6 +1291,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
   for (std::size_t gi = 0; gi < pending.size(); ++gi) expand_group(sc, pending[gi], gi);
   parse_contact(ctx, top, sc);
   parse_fluid(top, sc);
+  parse_observables(ctx, top, sc);
   for (std::size_t r = 0; r < sc.rods.size() && sc.has_contact; ++r) {
     const RodGroup& g = sc.groups[sc.rod_group[r]];
     sc.contact.rod_friction.push_back(g.friction);

@@ -259,7 +259,15 @@ Sweep make_sweep(const std::string& text, const std::string& source, std::vector
       os << ")";
       throw SceneError(os.str());
     }
-    if (i == 0) sw.scene.sim = s.sim;
+    if (i == 0) {
+      sw.scene.sim = s.sim;
+      sw.scene.observables = s.observables;  // (the same in every variation: only numbers are varied)
+      for (const std::string& col : observable_columns(s.observables))
+        for (const std::vector<std::string>* taken : {&sweep_summary_names(), &keys})
+          if (std::find(taken->begin(), taken->end(), col) != taken->end())
+            throw SceneError(source + ": observables: \"" + col + "\" is the name of a " +
+                             (taken == &keys ? "varied parameter" : "summary column") + " already; give it another name");
+    }
     // colliders touch each variation's rods alone; rod–rod contact would let
     // the variations (one batch, the same place) touch each other
     if (s.contact.rod_rod || s.contact.self)
@@ -405,19 +413,18 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
   return out;
 }
 
+const std::vector<std::string>& sweep_summary_names() {
+  static const std::vector<std::string> names = {
+      "tip_deflection_initial_m", "tip_deflection_max_m", "tip_deflection_final_m", "period_s", "period_err_s",
+      "damping_ratio", "damping_ratio_err", "cycles", "energy_final_J", "dissipated_J", "max_strain", "failed_at_s"};
+  return names;
+}
+
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec) {
-  std::vector<h5::Column> c = {{"tip_deflection_initial_m", {}},
-                               {"tip_deflection_max_m", {}},
-                               {"tip_deflection_final_m", {}},
-                               {"period_s", {}},
-                               {"period_err_s", {}},
-                               {"damping_ratio", {}},
-                               {"damping_ratio_err", {}},
-                               {"cycles", {}},
-                               {"energy_final_J", {}},
-                               {"dissipated_J", {}},
-                               {"max_strain", {}},
-                               {"failed_at_s", {}}};
+  std::vector<h5::Column> c;
+  for (const std::string& n : sweep_summary_names()) c.push_back({n, {}});
+  const std::size_t builtin = c.size();
+  for (const std::string& n : observable_columns(sw.scene.observables)) c.push_back({n, {}});
   for (std::size_t i = 0; i < rec.size(); ++i) {
     const ProbeRecord& r = rec[i];
     const Vec3 rest = sw.scene.rods[sw.probes[i].tip_rod].nodes.back();
@@ -459,8 +466,11 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
     c[9].values.push_back(r.dissipated);
     c[10].values.push_back(r.max_strain);
     c[11].values.push_back(r.failed_at);
+    const std::vector<double> observed = observed_values(r.observed);
+    for (std::size_t k = builtin; k < c.size(); ++k) c[k].values.push_back(observed[k - builtin]);
     if (std::isfinite(r.failed_at))  // frozen since: no observable of it means anything
-      for (std::size_t k = 0; k + 1 < c.size(); ++k) c[k].values.back() = kNaN;
+      for (std::size_t k = 0; k < c.size(); ++k)
+        if (k != 11) c[k].values.back() = kNaN;
   }
   return c;
 }
@@ -740,6 +750,27 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
   index.scene_text = text;
   index.scene_source = source;
   index.dt = dt;
+  // the chunk files' frames as one sweep's (virtual datasets), when every
+  // chunk has the same frames (it has: the same dt and schedule)
+  index.float32 = base.sim.precision == Precision::float32;
+  index.directors = base.sim.output_directors;
+  index.node_offsets.push_back(0);
+  index.element_offsets.push_back(0);
+  for (int k = 0; k < out.chunks; ++k) {
+    const h5::Reader rd(out.chunk_files[std::size_t(k)]);
+    const h5::Output& o = rd.output();
+    if (k == 0) index.time = o.time;
+    if (o.time != index.time) {
+      index.chunk_nodes.clear();
+      break;
+    }
+    for (std::size_t r = 1; r < o.node_offsets.size(); ++r) {
+      index.node_offsets.push_back(index.node_offsets.back() + o.node_offsets[r] - o.node_offsets[r - 1]);
+      index.element_offsets.push_back(index.element_offsets.back() + o.element_offsets[r] - o.element_offsets[r - 1]);
+    }
+    index.chunk_nodes.push_back(o.node_offsets.back());
+    index.chunk_elements.push_back(o.element_offsets.back());
+  }
   h5::write_sweep_index(opt.output, index);
   return out;
 }

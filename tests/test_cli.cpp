@@ -26,6 +26,8 @@
 #include <thread>
 #include <vector>
 
+#include <hdf5.h>
+
 #include "manyrods/h5io.h"
 #include "manyrods/runner.h"
 
@@ -574,6 +576,37 @@ TEST(Cli, ChunkedSweepEqualsTheSweepInOneBatchAndContinuesChunkByChunk) {
   EXPECT_EQ(text(path("chunked.csv")), text(path("one.csv")));
   // the index: every variation's parameters and summary, the statistics, the chunk files
   expect_contains(text(out), "manyrods-sweep-index");
+  // and its frames, virtual datasets over the chunk files, are those of the
+  // sweep in one batch (read from another folder: HDF5 finds the chunk
+  // files next to the index)
+  {
+    const h5::Reader whole(path("one.h5"));
+    const fs::path here = fs::current_path();
+    fs::current_path(fs::temp_directory_path());
+    const hid_t f = H5Fopen(out.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    const hid_t d = H5Dopen2(f, "node_position", H5P_DEFAULT);
+    ASSERT_GE(d, 0);
+    const hid_t sp = H5Dget_space(d);
+    hsize_t dims[3] = {0, 0, 0};
+    ASSERT_EQ(H5Sget_simple_extent_ndims(sp), 3);
+    H5Sget_simple_extent_dims(sp, dims, nullptr);
+    EXPECT_EQ(dims[0], hsize_t(whole.frames()));
+    EXPECT_EQ(dims[1], hsize_t(whole.output().nodes));
+    std::vector<double> all(dims[0] * dims[1] * dims[2]), frame;
+    EXPECT_GE(H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, all.data()), 0);
+    for (hsize_t k = 0; k < dims[0]; ++k) {
+      whole.read_positions(std::int64_t(k), frame);
+      EXPECT_EQ(std::vector<double>(all.begin() + std::ptrdiff_t(k * dims[1] * 3),
+                                    all.begin() + std::ptrdiff_t((k + 1) * dims[1] * 3)),
+                frame)
+          << "frame " << k;
+    }
+    H5Sclose(sp);
+    H5Dclose(d);
+    H5Fclose(f);
+    fs::current_path(here);
+  }
   // chunks of another sweep in the same place: an error that says so
   const Result other = cli("sweep " + scene + " --vary rods.0.material.youngs_modulus=lognormal:1e6:0.3"
                            " --vary rods.0.damping.tau_extension=uniform:0.02:0.08 --design lhs --samples 10 --seed 4"

@@ -70,6 +70,8 @@ void summary_line(const RunResult& r, const std::string& out) {
   if (r.max_contacts > 0 || r.max_penetration > 0)
     std::fprintf(stderr, "manyrods: contact: up to %lld contacts in a frame, deepest overlap %.3g m\n",
                  (long long)r.max_contacts, r.max_penetration);
+  for (const h5::Column& c : r.observables)
+    std::fprintf(stderr, "manyrods: observable %s = %.10g\n", c.name.c_str(), c.values[0]);
   for (const std::string& v : r.validity) std::fprintf(stderr, "manyrods: validity: %s\n", v.c_str());
   profile_lines(r.stages);
 }

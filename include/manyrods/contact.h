@@ -5,7 +5,7 @@
 //
 //   set_contact(batch, spec)     colliders, rod–rod/self switches, friction,
 //                                validated (InputError naming collider, rod, node)
-//   contact_stats(batch)         contacts and deepest penetration now
+//   contact_stats(batch[, rods]) contacts and deepest penetration now (of rods [begin, end))
 //
 // and step with Terms::colliders / Terms::rod_contact on (include/manyrods/terms.h).
 //
@@ -169,6 +169,6 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec);
 // Contacts and the deepest penetration of the current state (the colliders
 // placed at the batch's time).
 template <class T>
-ContactStats contact_stats(const RodBatch<T>& b);
+ContactStats contact_stats(const RodBatch<T>& b, int rod_begin = 0, int rod_end = -1);
 
 }  // namespace manyrods

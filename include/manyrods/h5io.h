@@ -18,7 +18,9 @@
 //                         attributes time, steps, dt, dissipated, ...;
 //                         with contact contact_work [1, slots] (per slot);
 //                         and, for a sweep, probes/{time, tip, max_strain,
-//                         dissipated, dissipation_rate} (its records so far)
+//                         dissipated, dissipation_rate, observed,
+//                         observed_last} (its records so far)
+//   /observables          a run's observables, one value per dataset
 //   /sweep                (manyrods sweep) parameters, summary and statistics columns
 // Root attributes: format = "manyrods", format_version = 1, precision,
 // integrator, dt. Frames are chunked one frame per chunk (at most 2^16 nodes)
@@ -106,6 +108,10 @@ struct Checkpoint {
   // dissipation rate. probe_count = 0: none.
   std::int64_t probe_count = 0, probe_samples = 0;
   std::vector<double> probe_time, probe_tip, probe_max_strain, probe_dissipated, probe_rate;
+  // and the scene's observables so far (include/manyrods/observables.h
+  // Observed, /checkpoint/probes/observed{,_last}): [probes, columns] and
+  // [probes, observables]; empty: the scene has none
+  std::vector<double> probe_observed, probe_observed_last;
   // read only, from a sweep's file: its variations (/sweep/parameters) and
   // the first rod of each (/sweep/variation_first_rod)
   std::vector<Column> sweep_parameters;
@@ -116,7 +122,7 @@ struct Checkpoint {
 // variations' parameters and summary gathered from its chunk files, the
 // statistics, the chunk files' names (relative to the index's folder) and
 // each one's first variation, and the scene; written to <path>.tmp and
-// renamed. The frames stay in the chunk files.
+// renamed. The frames stay in the chunk files (below).
 struct SweepIndex {
   std::vector<Column> parameters, summary, statistics, sensitivity;
   std::vector<std::string> statistic_names, sensitivity_names;
@@ -124,6 +130,16 @@ struct SweepIndex {
   std::vector<std::int64_t> chunk_first;  // [chunks + 1]
   std::string scene_text, scene_source;
   double dt = 0;
+  // The chunk files' frames, presented as those of one sweep file: /time
+  // (the same in every chunk), /node_offsets and /element_offsets of all
+  // rods, and /node_position [frames, nodes, 3] and /element_directors
+  // [frames, elements, 3, 3] as HDF5 virtual datasets that read each chunk
+  // file's (h5py opens them as one; a chunk file that is missing reads as
+  // NaN). chunk_nodes empty: no frames in the index.
+  std::vector<double> time;
+  std::vector<std::int64_t> node_offsets, element_offsets;  // [rods + 1]
+  std::vector<std::int64_t> chunk_nodes, chunk_elements;    // [chunks]
+  bool float32 = false, directors = false;
 };
 void write_sweep_index(const std::string& path, const SweepIndex& index);
 
@@ -145,6 +161,9 @@ class Writer {
   // `rows_attr`): the statistics, the sensitivity indices.
   void add_sweep_table(const char* name, const std::vector<Column>& columns, const char* rows_attr,
                        const std::vector<std::string>& row_names);
+  // /observables: one dataset per column (include/manyrods/observables.h)
+  // holding its one value (a run that is not a sweep).
+  void write_observables(const std::vector<Column>& columns);
   std::int64_t frames() const;
   // Closes the file and renames <path>.tmp to <path>.
   void finish();
@@ -176,6 +195,7 @@ struct Output {
   std::vector<Column> sweep_statistics;
   std::vector<std::string> sweep_statistic_names;
   std::vector<std::int32_t> sweep_first_rod;  // [variations] /sweep/variation_first_rod
+  std::vector<Column> observables;            // /observables (a run's; empty: none)
 };
 
 class Reader {

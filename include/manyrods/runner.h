@@ -2,8 +2,9 @@
 // `manyrods sweep` commands; manyrods/h5io.h has the file layout).
 //
 // The run advances in chunks that end at the "sample points": every 64th
-// step, every output frame (output_interval rounded to whole steps) and the
-// last step, all counted from step 0 of the run. At each sample point the
+// step, every output frame (output_interval rounded to whole steps), the
+// step of each time an observable is wanted at (include/manyrods/observables.h)
+// and the last step, all counted from step 0 of the run. At each sample point the
 // dissipation rate 2·D_v is evaluated and integrated by the trapezoidal
 // rule into /energy/dissipated (so E_mech + dissipated stays constant up to
 // the integrator's and the quadrature's error); at each frame the positions,
@@ -33,8 +34,9 @@ namespace manyrods::scene {
 inline constexpr std::int64_t kSampleSteps = 64;
 
 // A rod whose tip is recorded at every sample point, and the rods
-// [rods_begin, rods_end) whose strain and energies are summarised with it
-// (one sweep variation).
+// [rods_begin, rods_end) whose strain, energies and observables are
+// summarised with it (one sweep variation; a run with observables that is
+// not a sweep has one probe over all its rods).
 struct Probe {
   int tip_rod = 0;
   int rods_begin = 0, rods_end = 0;
@@ -49,6 +51,7 @@ struct ProbeRecord {
   // the time its state stopped being finite (NaN: it did not): its rods
   // were then frozen at their start and the run went on with the others
   double failed_at = std::numeric_limits<double>::quiet_NaN();
+  Observed observed;  // the scene's [[observables]] for these rods (Scene::observables)
 };
 
 struct RunOptions {
@@ -86,6 +89,9 @@ struct RunResult {
   std::uint64_t state_hash = 0;  // of the final state (include/manyrods/batch.h state_hash)
   StageTimes stages;             // with RunOptions::profile: thread-seconds per stage
   std::vector<ProbeRecord> probes;
+  // a run with [[observables]] that is not a sweep: their values (also in
+  // the file's /observables)
+  std::vector<h5::Column> observables;
   // scenes with contact, over the frames written: most contacts in touch
   // and the deepest overlap (m)
   std::int64_t max_contacts = 0;
@@ -111,7 +117,8 @@ std::string part_path(const std::string& output, int k);  // k = 1, 2, …
 // remove_unfinished, the .tmp of a part that was being written is removed.
 std::vector<std::string> list_parts(const std::string& output, bool remove_unfinished = false);
 // Writes the parts' frames, in order, and `last` (the last part's
-// checkpoint) into `output`, then removes the parts; returns the frames.
+// checkpoint) and the last part's /observables into `output`, then removes the
+// parts; returns the frames.
 std::int64_t merge_parts(const std::vector<std::string>& parts, const std::string& output, const h5::Layout& layout,
                          const h5::RunInfo& info, const h5::Checkpoint& last);
 

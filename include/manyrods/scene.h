@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "manyrods/batch.h"
+#include "manyrods/observables.h"
 #include "manyrods/stable_dt.h"
 #include "manyrods/statics.h"
 #include "manyrods/step.h"
@@ -119,6 +120,8 @@ struct Scene {
   // HostMotion), shared by the holds and colliders that name them; a file run
   // holds them at their initial (identity) pose.
   std::vector<std::shared_ptr<HostMotion>> host_motions;
+  // [[observables]] (include/manyrods/observables.h)
+  std::vector<Observable> observables;
 };
 
 // Parses and validates. `overrides` set numeric values by key path before

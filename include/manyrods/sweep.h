@@ -94,8 +94,11 @@ struct Oscillation {
 };
 Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<double>& u, double small = 0);
 
-// Per-variation summary columns (tip deflections, period, damping ratio,
-// energies, max strain) from the probe records of a run of the sweep.
+// Per-variation summary columns from the probe records of a run of the
+// sweep: the built-in ones (sweep_summary_names: tip deflections, period,
+// damping ratio, energies, max strain, failed_at_s), then the scene's
+// [[observables]] (include/manyrods/observables.h observable_columns).
+const std::vector<std::string>& sweep_summary_names();
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec);
 std::vector<h5::Column> sweep_parameters(const Sweep& sw);
 

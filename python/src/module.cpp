@@ -305,6 +305,9 @@ nb::dict run_result(const manyrods::scene::RunResult& r) {
   d["element_steps_per_s"] = r.element_steps_per_s;
   d["state_hash"] = r.state_hash;
   d["validity"] = r.validity;
+  nb::dict obs;  // a run's [[observables]], name -> value
+  for (const auto& c : r.observables) obs[c.name.c_str()] = c.values[0];
+  d["observables"] = obs;
   return d;
 }
 

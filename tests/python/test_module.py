@@ -322,6 +322,42 @@ def test_sweep_with_a_design_and_a_distribution(tmp_path):
         s.sweep(["rods.0.material.youngs_modulus=1e6:2e6"], str(tmp_path / "e.h5"), samples=4, design="halton")
 
 
+def test_observables_of_a_run_and_of_a_sweep(tmp_path):
+    with open(CANTILEVER) as f:
+        text = f.read().replace("duration = 30.0", "duration = 0.6")
+    text += textwrap.dedent("""
+        [[observables]]
+        name = "t_zero"
+        quantity = "displacement"
+        component = "x"
+        first_below = 0.0
+
+        [[observables]]
+        name = "tip_x"
+        quantity = "position"
+        component = "x"
+        at = [0.0, 0.25]
+        """)
+    s = manyrods.parse_scene(text, "observed.toml")
+    r = s.run(str(tmp_path / "o.h5"))
+    obs = r["observables"]
+    assert list(obs) == ["t_zero", "tip_x@0", "tip_x@0.25"]
+    # released at +x, the tip passes x = 0 before a quarter of the 1.763 s period
+    assert 0.3 < obs["t_zero"] < 0.6
+    assert obs["tip_x@0"] > obs["tip_x@0.25"] > 0
+    w = s.sweep(["rods.0.material.youngs_modulus=1e6,4e6"], str(tmp_path / "w.h5"))
+    tz = w["summary"]["t_zero"]
+    assert tz[0] == pytest.approx(obs["t_zero"], rel=1e-3)  # (the sweep steps with the stiffer rod's dt)
+    # four times as stiff: twice the frequency, and twice the damping ratio
+    # tau*omega/2 (0.0357 -> 0.0714), which delays the crossing of a damped
+    # oscillator released from rest, (pi/2 + zeta)/omega_d; within 3 % (the
+    # stiff rod's swing is a quarter as large, less nonlinear)
+    z1, z4 = 0.0357, 0.0714
+    ratio = 0.5 * (math.pi / 2 + z4) / (math.pi / 2 + z1) * math.sqrt((1 - z1 * z1) / (1 - z4 * z4))
+    assert tz[1] / tz[0] == pytest.approx(ratio, rel=0.03)
+    assert "t_zero" in w["statistics"]
+
+
 def test_save_writes_a_file_the_tool_can_continue(tmp_path):
     b = manyrods.load_scene(CANTILEVER).build_batch()
     b.step(b.dt, 128)
