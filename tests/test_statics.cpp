@@ -3,6 +3,8 @@
 // large-deflection cantilever (1b), solved by Newton (host/statics.h).
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -185,4 +187,43 @@ TEST(Statics, GroupedJacobianIsTheColumnByColumnOne) {
   std::printf("grouped against one column at a time: %.3e of the largest entry\n", diff / scale);
   EXPECT_GT(scale, 0.0);
   EXPECT_LE(diff, 10 * std::numeric_limits<double>::epsilon() / 1e-6 * scale);
+}
+
+TEST(Statics, BandedSolveIsTheDenseLuSolve) {
+  // The Newton step's banded storage holds the grouped Jacobian's entries,
+  // and its banded LU with partial pivoting solves J x = r as the
+  // dense LU does: the two solutions agree to the round-off that the
+  // condition number allows (κ ε, ten times asserted).
+  RodSpec s = seed_cantilever(24);
+  s.rest_curvature.assign(23, {3.0, 1.0, 0.5});
+  auto b = build_batch<double>({s}, {0, 0, -9.81});
+  b.set_node_force(0, 24, {0.02, 0.01, 0});
+  ASSERT_TRUE(solve_static(b).converged);
+  detail::RodDofs d;
+  for (int j = 0; j <= 24; ++j)
+    if (b.model.node_inv_mass[b.node_index(0, j)] != 0) d.node_slots.push_back(b.node_index(0, j));
+  for (int e = 0; e < 24; ++e) d.elem_slots.push_back(b.elem_index(0, e));
+  std::array<Array<double>, 3> f, c;
+  for (int a = 0; a < 3; ++a) f[a].resize(b.slots(), 0.0), c[a].resize(b.slots(), 0.0);
+  const Eigen::MatrixXd dense = detail::residual_jacobian<kAllTerms>(b, d, f, c, kL, 1e-6, true);
+  detail::BandedJacobian J;
+  J.plan(d, b.rods[0].offset);
+  detail::banded_jacobian<kAllTerms>(b, d, f, c, kL, 1e-6, J);
+  // (two evaluations: the ±h steps move the state by round-off between
+  // them, as in GroupedJacobianIsTheColumnByColumnOne, hence its bound)
+  const double scale = dense.cwiseAbs().maxCoeff();
+  EXPECT_LE((J.dense() - dense).cwiseAbs().maxCoeff(), 10 * std::numeric_limits<double>::epsilon() / 1e-6 * scale);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g;
+  Eigen::VectorXd rhs(dense.rows());
+  for (int i = 0; i < rhs.size(); ++i) rhs[i] = g(rng);
+  Eigen::VectorXd x;
+  ASSERT_TRUE(detail::solve_banded(J, rhs, x));
+  const Eigen::VectorXd ref = dense.partialPivLu().solve(rhs);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(dense);
+  const double kappa = svd.singularValues()(0) / svd.singularValues().tail(1)(0);
+  const double err = (x - ref).norm() / ref.norm();
+  std::printf("banded against dense LU: %.3e relative (condition number %.3e)\n", err, kappa);
+  EXPECT_LE(err, 10 * kappa * std::numeric_limits<double>::epsilon());
+  EXPECT_LE((J.times(x) - rhs).norm(), 10 * kappa * std::numeric_limits<double>::epsilon() * rhs.norm());
 }
