@@ -6,6 +6,7 @@
 #include <map>
 #include <sstream>
 
+#include "host/fp_env.h"
 #include "kernels/strains.h"
 #include "kernels/views.h"
 #include "manyrods/stable_dt.h"
@@ -174,37 +175,66 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
     give_contact(s, choice, b);
     return b;
   }
-  std::map<std::string, RodBatch<double>> solved;
+  // The static equilibria, one per distinct (rod, load) key, solved in
+  // parallel (each rod alone in its own batch: the same numbers on any
+  // number of threads), then copied into the rods that share it.
+  std::map<std::string, std::size_t> key_index;
+  std::vector<int> key_rod;  // a rod of each key
+  std::vector<std::size_t> rod_key(std::size_t(b.rod_count()), std::size_t(-1));
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodGroup& g = s.groups[s.rod_group[r]];
     if (!g.has_initial_tip_force) continue;
-    const std::string key = static_key(s.rods[r], g, s.sim.gravity);
-    auto it = solved.find(key);
-    if (it == solved.end()) {
-      RodBatch<double> one = build_batch<double>({s.rods[r]}, s.sim.gravity);
-      apply_term_switches(one, 0, g.terms);
-      const int n = one.elements(0);
-      Vec3 f;
-      for (int a = 0; a < 3; ++a) f[a] = g.initial_tip_force[a] + g.tip_force[a];
-      one.set_node_force(0, n, f);
-      const StaticResult res = has_gravity(s) && g.terms.gravity ? solve_static<terms_of<false, true>()>(one)
-                                                                 : solve_static<terms_of<false, false>()>(one);
-      if (!res.converged)
-        throw SceneError(s.source + ":" + std::to_string(g.line) + ": " + g.name +
-                         ": the static equilibrium under initial_tip_force did not converge");
-      it = solved.emplace(key, std::move(one)).first;
+    const auto [it, fresh] = key_index.emplace(static_key(s.rods[r], g, s.sim.gravity), key_rod.size());
+    if (fresh) key_rod.push_back(r);
+    rod_key[std::size_t(r)] = it->second;
+  }
+  struct Solved {
+    std::vector<double> x, q;  // node positions [3][n + 1], frames [9][n + 1] (the tip ghost's too)
+    std::string error;         // empty: converged
+  };
+  std::vector<Solved> solved(key_rod.size());
+  const RegionFpMode mode = RegionFpMode::of_caller();  // (the caller's, for every thread: host/fp_env.h)
+#pragma omp parallel
+  {
+    const RegionFpScope fp(mode);
+#pragma omp for schedule(dynamic)
+    for (std::size_t k = 0; k < key_rod.size(); ++k) {
+      const int r = key_rod[k];
+      const RodGroup& g = s.groups[s.rod_group[r]];
+      Solved& out = solved[k];
+      try {
+        RodBatch<double> one = build_batch<double>({s.rods[r]}, s.sim.gravity);
+        apply_term_switches(one, 0, g.terms);
+        const int n = one.elements(0);
+        Vec3 f;
+        for (int a = 0; a < 3; ++a) f[a] = g.initial_tip_force[a] + g.tip_force[a];
+        one.set_node_force(0, n, f);
+        const StaticResult res = has_gravity(s) && g.terms.gravity ? solve_static<terms_of<false, true>()>(one)
+                                                                   : solve_static<terms_of<false, false>()>(one);
+        if (!res.converged) out.error = "the static equilibrium under initial_tip_force did not converge";
+        for (int a = 0; a < 3; ++a)
+          for (int j = 0; j <= n; ++j) out.x.push_back(one.state.node_x[a][one.node_index(0, j)]);
+        for (int i = 0; i < 9; ++i)
+          for (int e = 0; e <= n; ++e) out.q.push_back(one.state.elem_Q[i][one.elem_index(0, e)]);
+      } catch (const std::exception& e) {
+        out.error = e.what();
+      }
     }
-    const RodBatch<double>& one = it->second;
+  }
+  for (std::size_t k = 0; k < key_rod.size(); ++k)
+    if (!solved[k].error.empty()) {
+      const RodGroup& g = s.groups[s.rod_group[key_rod[k]]];
+      throw SceneError(s.source + ":" + std::to_string(g.line) + ": " + g.name + ": " + solved[k].error);
+    }
+  for (int r = 0; r < b.rod_count(); ++r) {
+    if (rod_key[std::size_t(r)] == std::size_t(-1)) continue;
+    const Solved& one = solved[rod_key[std::size_t(r)]];
     const int n = b.elements(r);
-    for (int j = 0; j <= n; ++j)
-      for (int a = 0; a < 3; ++a)
-        b.state.node_x[a][b.node_index(r, j)] = T(one.state.node_x[a][one.node_index(0, j)]);
-    for (int e = 0; e < n; ++e)
-      for (int i = 0; i < 9; ++i)
-        b.state.elem_Q[i][b.elem_index(r, e)] = T(one.state.elem_Q[i][one.elem_index(0, e)]);
-    // the tip ghost element holds a copy of the last frame (batch.h)
+    for (int a = 0; a < 3; ++a)
+      for (int j = 0; j <= n; ++j) b.state.node_x[a][b.node_index(r, j)] = T(one.x[std::size_t(a * (n + 1) + j)]);
+    // (e = n: the tip ghost element holds a copy of the last frame, batch.h)
     for (int i = 0; i < 9; ++i)
-      b.state.elem_Q[i][b.elem_index(r, n)] = T(one.state.elem_Q[i][one.elem_index(0, n)]);
+      for (int e = 0; e <= n; ++e) b.state.elem_Q[i][b.elem_index(r, e)] = T(one.q[std::size_t(i * (n + 1) + e)]);
   }
   give_contact(s, choice, b);
   return b;

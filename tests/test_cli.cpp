@@ -816,13 +816,13 @@ TEST(Cli, StepsAboveTheStableLimitAndBadOutputsAreRefusedBeforeAnyWork) {
 }
 
 TEST(Cli, AKilledRunResumesToTheUninterruptedResultBitForBit) {
-  // 64 damped beams (2,048 elements), 0.2 s: a few seconds of wall time,
+  // 64 damped beams (2,048 elements), 1.5 s: about 2 s of wall time,
   // checkpoints every 0.05 s of it. Killed with SIGKILL at random moments
   // (fixed seed) and resumed each time until it finishes, the output must
   // equal the uninterrupted run's (written in one piece): every frame's
   // time, positions, directors and energies, bit for bit, and the final state.
   const std::string text =
-      "[simulation]\ndt = \"auto\"\nduration = 0.2\noutput_interval = 0.01\n"
+      "[simulation]\ndt = \"auto\"\nduration = 1.5\noutput_interval = 0.05\n"
       "[[rods]]\nname = \"beam\"\ncount = 64\nelements = 32\nlength = 0.3\n"
       "placement = { kind = \"grid\", spacing = [0.02, 0.02] }\n"
       "initial_tip_force = [0.005, 0.0, 0.0]\n"
