@@ -418,6 +418,10 @@ void Writer::write_checkpoint(const Checkpoint& c) {
       put_d("observed", c.probe_observed, {p, c.probe_observed.size() / p});
       put_d("observed_last", c.probe_observed_last, {p, c.probe_observed_last.size() / p});
     }
+    if (!c.probe_failed_at.empty()) {
+      if (c.probe_failed_at.size() != p) fail(w.tmp, "checkpoint: inconsistent failure records");
+      put_d("failed_at", c.probe_failed_at, {p});
+    }
   }
 }
 
@@ -450,10 +454,12 @@ void Writer::add_sweep_table(const char* name, const std::vector<Column>& column
 }
 
 void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
-                         const std::vector<std::int32_t>& variation_first_rod) {
+                         const std::vector<std::int32_t>& variation_first_rod, int sensitivity_base) {
   Impl& w = *impl_;
   const Id g = checked(H5Gcreate2(w.file.get(), "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                        w.tmp, "cannot create /sweep");
+  if (sensitivity_base > 0)
+    attr_scalar<std::int64_t>(g.get(), "sensitivity_base", sensitivity_base, H5T_NATIVE_INT64, w.tmp);
   write_vector(g.get(), "variation_first_rod", H5T_NATIVE_INT32, variation_first_rod, w.tmp);
   column_group(g.get(), "parameters", parameters, w.tmp);
   column_group(g.get(), "summary", summary, w.tmp);
@@ -640,6 +646,9 @@ Checkpoint read_checkpoint(const std::string& path) {
         fail(path, std::string("/checkpoint/probes/") + name + " has " + std::to_string(d[0]) + " entries, " +
                        std::to_string(dt_dims[0]) + " probes expected");
     }
+    if (H5Lexists(pg.get(), "failed_at", H5P_DEFAULT) > 0 && get_d("failed_at", c.probe_failed_at, 1)[0] != dt_dims[0])
+      fail(path, "/checkpoint/probes/failed_at has " + std::to_string(c.probe_failed_at.size()) + " entries, " +
+                     std::to_string(dt_dims[0]) + " probes expected");
     for (auto [name, v] : {std::pair{"observed", &c.probe_observed}, std::pair{"observed_last", &c.probe_observed_last}}) {
       if (H5Lexists(pg.get(), name, H5P_DEFAULT) <= 0) continue;
       const auto d = get_d(name, *v, 2);
@@ -652,6 +661,12 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (c.from_sweep) {
     const Id sg = checked(H5Gopen2(f.get(), "sweep", H5P_DEFAULT), H5Gclose, path, "cannot open /sweep");
     c.sweep_first_rod = read_vector<std::int32_t>(sg.get(), "variation_first_rod", H5T_NATIVE_INT32, path);
+    if (H5Aexists(sg.get(), "sensitivity_base") > 0) {
+      const std::int64_t base = read_attr_scalar<std::int64_t>(sg.get(), "sensitivity_base", H5T_NATIVE_INT64, path, "/sweep.");
+      const std::int64_t n = std::int64_t(c.sweep_first_rod.size());
+      if (base < 1 || n % base != 0) fail(path, "/sweep.sensitivity_base = " + std::to_string(base) + " does not divide the " + std::to_string(n) + " variations");
+      c.sweep_sensitivity_base = int(base);
+    }
     const Id pg = checked(H5Gopen2(sg.get(), "parameters", H5P_DEFAULT), H5Gclose, path,
                           "missing group /sweep/parameters");
     std::stringstream ss(read_attr_string(pg.get(), "order", path, "/sweep/parameters."));

@@ -324,6 +324,10 @@ class SceneRun {
       rec.max_strain = c.probe_max_strain[i];
       rec.dissipated = c.probe_dissipated[i];
       probe_rate_[i] = c.probe_rate[i];
+      // a variation that failed before stays frozen (its state in the
+      // checkpoint is its start, at rest; its masses are zeroed again)
+      if (i < c.probe_failed_at.size() && std::isfinite(c.probe_failed_at[i]) && !opt_.probes.empty())
+        freeze(i, c.probe_failed_at[i], false);
     }
     // the observables so far (the scene's own: the checkpoint carries its text)
     const std::size_t m = rec_columns(), k = s_.observables.size();
@@ -414,6 +418,37 @@ class SceneRun {
     }
   }
 
+  // Variation p's rods back to their state at the run's start, at rest
+  // (reset; a continued run's checkpoint holds that state already), every
+  // unknown fixed (zero inverse masses), so that they no longer move (it
+  // stopped being finite at time t); ProbeRecord::failed_at and a line in
+  // the run's validity summary say so.
+  void freeze(std::size_t p, double t, bool reset = true) {
+    const Probe& pr = opt_.probes[p];
+    for (int r = pr.rods_begin; r < pr.rods_end; ++r) {
+      const int first = b_.rods[std::size_t(r)].offset;
+      const int last = r + 1 < b_.rod_count() ? b_.rods[std::size_t(r) + 1].offset : b_.slots();
+      for (int k = first; k < last; ++k) {
+        for (int a = 0; a < 3; ++a) b_.model.elem_inv_inertia[a][k] = T(0);
+        b_.model.node_inv_mass[k] = T(0);
+        if (!reset) continue;
+        for (int a = 0; a < 3; ++a) {
+          b_.state.node_x[a][k] = start_.node_x[a][k];
+          b_.state.node_v[a][k] = T(0);
+          b_.state.elem_w[a][k] = T(0);
+        }
+        for (int a = 0; a < 9; ++a) b_.state.elem_Q[a][k] = start_.elem_Q[a][k];
+        if (b_.state.node_xc[0].size() != 0)
+          for (int a = 0; a < 3; ++a) b_.state.node_xc[a][k] = T(0);
+      }
+    }
+    probes_[p].failed_at = t;
+    std::ostringstream os;
+    os << "variation " << p << " (rods " << pr.rods_begin << "-" << pr.rods_end - 1 << ") stopped being finite at t = "
+       << t << " s: frozen from there on, its summary is NaN; the other variations went on";
+    failures_.push_back(os.str());
+  }
+
   // The variations with a non-finite entry (advance stopped at the first
   // such step): their rods' slots back to their state at the run's start,
   // at rest, every unknown fixed (zero inverse masses), so that they no
@@ -442,25 +477,7 @@ class SceneRun {
         for (int k = slots(r).first; k < slots(r).second && !bad; ++k) bad = !finite_slot(k);
       if (!bad) continue;
       any = true;
-      for (int r = pr.rods_begin; r < pr.rods_end; ++r)
-        for (int k = slots(r).first; k < slots(r).second; ++k) {
-          for (int a = 0; a < 3; ++a) {
-            b_.state.node_x[a][k] = start_.node_x[a][k];
-            b_.state.node_v[a][k] = T(0);
-            b_.state.elem_w[a][k] = T(0);
-            b_.model.elem_inv_inertia[a][k] = T(0);
-          }
-          for (int a = 0; a < 9; ++a) b_.state.elem_Q[a][k] = start_.elem_Q[a][k];
-          if (b_.state.node_xc[0].size() != 0)
-            for (int a = 0; a < 3; ++a) b_.state.node_xc[a][k] = T(0);
-          b_.model.node_inv_mass[k] = T(0);
-        }
-      probes_[p].failed_at = b_.state.time;
-      std::ostringstream os;
-      os << "variation " << p << " (rods " << pr.rods_begin << "-" << pr.rods_end - 1
-         << ") stopped being finite at t = " << b_.state.time
-         << " s: frozen from there on, its summary is NaN; the other variations went on";
-      failures_.push_back(os.str());
+      freeze(p, b_.state.time);
     }
     return any;
   }
@@ -511,6 +528,7 @@ class SceneRun {
       c.probe_rate.push_back(probe_rate_[i]);
       c.probe_observed.insert(c.probe_observed.end(), rec.observed.value.begin(), rec.observed.value.end());
       c.probe_observed_last.insert(c.probe_observed_last.end(), rec.observed.last.begin(), rec.observed.last.end());
+      c.probe_failed_at.push_back(rec.failed_at);
     }
     return c;
   }

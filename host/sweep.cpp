@@ -228,6 +228,7 @@ Sweep sweep_of_checkpoint(const h5::Checkpoint& c, const std::string& path) {
     for (std::size_t i = 0; i < points.size(); ++i) points[i].push_back(col.values[i]);
   }
   Sweep sw = make_sweep(c.scene_text, path + ":/scene", std::move(names), std::move(points));
+  sw.sensitivity_base = c.sweep_sensitivity_base;
   for (std::size_t i = 0; i < c.sweep_first_rod.size(); ++i)
     if (sw.first_rod[i] != c.sweep_first_rod[i])
       throw SceneError(path + ": variation " + std::to_string(i) + " starts at rod " +
@@ -402,7 +403,7 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
     out.summary = sweep_summary(sw, rec);
     out.statistics = sweep_statistics(out.summary);
     std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
-    w.write_sweep(out.parameters, out.summary, first);
+    w.write_sweep(out.parameters, out.summary, first, sw.sensitivity_base);
     w.add_sweep_table("statistics", out.statistics, "statistics", sweep_statistic_names());
     if (sw.sensitivity_base > 0) {
       out.sensitivity = sweep_sensitivity(out.summary, sw.sensitivity_base, int(sw.names.size()));

@@ -497,6 +497,16 @@ TEST(Cli, ASweepVariationThatBlowsUpIsReportedAndTheOthersGoOn) {
   ASSERT_EQ(two.size(), 3u);
   EXPECT_EQ(all[1], two[1]);
   EXPECT_EQ(all[3], two[2]);
+  // stopped after the failure and continued, the sweep still knows it:
+  // the same summary, the same report and exit status
+  const Result part = cli("sweep " + scene + " --vary rods.0.material.youngs_modulus=1e6,3e9,2e6 --force-dt --until 0.2 -o " +
+                          path("blowup_part.h5") + " --csv " + path("blowup_part.csv"));
+  EXPECT_EQ(part.status, 3) << part.err;
+  const Result rest = cli("run --restart " + path("blowup_part.h5") + " -o " + path("blowup_rest.h5") + " --csv " +
+                          path("blowup_rest.csv"));
+  EXPECT_EQ(rest.status, 3) << rest.err;
+  expect_contains(rest.err, "variation 1 (rods 1-1) stopped being finite");
+  EXPECT_EQ(rows(path("blowup_rest.csv")), all);
   const h5::Reader rd(path("blowup.h5"));
   for (const h5::Column& c : rd.output().sweep_summary) {
     if (c.name == "failed_at_s") {
@@ -544,6 +554,17 @@ TEST(Cli, SaltelliSweepGivesTheSobolIndicesOfThePeriod) {
     ++found;
   }
   EXPECT_EQ(found, 2);
+  // a saltelli sweep stopped and continued gives its indices as in one go
+  const std::string small = " --vary rods.0.material.youngs_modulus=lognormal:1e6:0.2"
+                            " --vary rods.0.material.density=lognormal:1000:0.1 --design saltelli --samples 4 --seed 3"
+                            " --duration 0.3";
+  ASSERT_EQ(cli("sweep " + scene + small + " -o " + path("s_whole.h5") + " --csv " + path("s_whole.csv")).status, 0);
+  ASSERT_EQ(cli("sweep " + scene + small + " --until 0.1 -o " + path("s_part.h5") + " --csv " + path("s_part.csv")).status, 0);
+  const Result rest = cli("run --restart " + path("s_part.h5") + " --duration 0.3 -o " + path("s_rest.h5") + " --csv " +
+                          path("s_rest.csv"));
+  ASSERT_EQ(rest.status, 0) << rest.err;
+  ASSERT_TRUE(fs::exists(path("s_rest_sensitivity.csv")));
+  EXPECT_EQ(slurp(path("s_rest_sensitivity.csv")), slurp(path("s_whole_sensitivity.csv")));
 }
 
 TEST(Cli, ChunkedSweepEqualsTheSweepInOneBatchAndContinuesChunkByChunk) {

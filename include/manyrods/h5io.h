@@ -112,10 +112,14 @@ struct Checkpoint {
   // Observed, /checkpoint/probes/observed{,_last}): [probes, columns] and
   // [probes, observables]; empty: the scene has none
   std::vector<double> probe_observed, probe_observed_last;
+  // per probe, the time its variation stopped being finite (NaN: it did
+  // not; /checkpoint/probes/failed_at; empty in files from before it)
+  std::vector<double> probe_failed_at;
   // read only, from a sweep's file: its variations (/sweep/parameters) and
   // the first rod of each (/sweep/variation_first_rod)
   std::vector<Column> sweep_parameters;
   std::vector<std::int32_t> sweep_first_rod;
+  int sweep_sensitivity_base = 0;  // /sweep.sensitivity_base: a saltelli design's N (0: none)
 };
 
 // A chunked sweep's index file (format "manyrods-sweep-index"): the
@@ -154,8 +158,9 @@ class Writer {
   // layout.directors); the pointer type must match layout.float32.
   void append_frame(double time, const void* positions, const void* directors, const EnergyRow& energy);
   void write_checkpoint(const Checkpoint& c);
+  // sensitivity_base: a saltelli design's N, kept to continue the sweep (0: none)
   void write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
-                   const std::vector<std::int32_t>& variation_first_rod);
+                   const std::vector<std::int32_t>& variation_first_rod, int sensitivity_base = 0);
   // After write_sweep: /sweep/<name>, one column per summary column (its
   // name), its values named by `row_names` (the group's attribute
   // `rows_attr`): the statistics, the sensitivity indices.
