@@ -77,7 +77,7 @@ template <class T>
 class SceneRun {
  public:
   SceneRun(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart)
-      : s_(s), opt_(opt), restart_(restart), choice_(step_choice(s)), b_(build_scene_batch<T>(s, restart == nullptr)) {
+      : s_(s), opt_(opt), restart_(restart), choice_(step_choice(s)), b_(build_scene_batch<T>(s, restart == nullptr, opt.static_cache)) {
     res_.dt = restart ? restart->dt : scene_dt(s, b_);
     res_.elements = b_.element_count();
     plan_steps();

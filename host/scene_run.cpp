@@ -3,7 +3,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
+#include <mutex>
+#include <unordered_map>
 #include <sstream>
 
 #include "host/fp_env.h"
@@ -138,8 +141,49 @@ void give_fluid(const Scene& s, RodBatch<T>& b) {
   }
 }
 
+struct StaticCache::Impl {
+  std::size_t max_bytes, bytes = 0;
+  mutable std::mutex m;
+  mutable std::size_t hits = 0;
+  std::unordered_map<std::string, State> states;  // by the key's two hashes
+};
+
+namespace {
+// Two independent 64-bit hashes of a key (std::hash and FNV-1a), as 16 bytes.
+std::string key_hash(const std::string& key) {
+  std::uint64_t a = std::hash<std::string>{}(key), b = 14695981039346656037ull;
+  for (unsigned char c : key) b = (b ^ c) * 1099511628211ull;
+  std::string h(16, '\0');
+  std::memcpy(h.data(), &a, 8);
+  std::memcpy(h.data() + 8, &b, 8);
+  return h;
+}
+}  // namespace
+
+StaticCache::StaticCache(std::size_t max_bytes) : impl_(std::make_unique<Impl>()) { impl_->max_bytes = max_bytes; }
+StaticCache::~StaticCache() = default;
+bool StaticCache::find(const std::string& key, State& out) const {
+  const std::string h = key_hash(key);
+  const std::lock_guard<std::mutex> lock(impl_->m);
+  const auto it = impl_->states.find(h);
+  if (it == impl_->states.end()) return false;
+  out = it->second;
+  ++impl_->hits;
+  return true;
+}
+void StaticCache::put(const std::string& key, const State& s) {
+  const std::size_t bytes = 8 * (s.x.size() + s.q.size()) + 64;
+  const std::lock_guard<std::mutex> lock(impl_->m);
+  if (impl_->bytes + bytes > impl_->max_bytes) return;
+  if (impl_->states.emplace(key_hash(key), s).second) impl_->bytes += bytes;
+}
+std::size_t StaticCache::hits() const {
+  const std::lock_guard<std::mutex> lock(impl_->m);
+  return impl_->hits;
+}
+
 template <class T>
-RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
+RodBatch<T> build_scene_batch(const Scene& s, bool initial_state, StaticCache* cache) {
   check_batch_size(s);
   const StepChoice choice = step_choice(s);
   RodBatch<T> b;
@@ -179,18 +223,21 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
   // parallel (each rod alone in its own batch: the same numbers on any
   // number of threads), then copied into the rods that share it.
   std::map<std::string, std::size_t> key_index;
+  std::vector<std::string> keys;
   std::vector<int> key_rod;  // a rod of each key
   std::vector<std::size_t> rod_key(std::size_t(b.rod_count()), std::size_t(-1));
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodGroup& g = s.groups[s.rod_group[r]];
     if (!g.has_initial_tip_force) continue;
     const auto [it, fresh] = key_index.emplace(static_key(s.rods[r], g, s.sim.gravity), key_rod.size());
-    if (fresh) key_rod.push_back(r);
+    if (fresh) {
+      key_rod.push_back(r);
+      keys.push_back(it->first);
+    }
     rod_key[std::size_t(r)] = it->second;
   }
-  struct Solved {
-    std::vector<double> x, q;  // node positions [3][n + 1], frames [9][n + 1] (the tip ghost's too)
-    std::string error;         // empty: converged
+  struct Solved : StaticCache::State {  // (x, q: the tip ghost's frame too)
+    std::string error;                   // empty: converged
   };
   std::vector<Solved> solved(key_rod.size());
   const RegionFpMode mode = RegionFpMode::of_caller();  // (the caller's, for every thread: host/fp_env.h)
@@ -202,6 +249,7 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
       const int r = key_rod[k];
       const RodGroup& g = s.groups[s.rod_group[r]];
       Solved& out = solved[k];
+      if (cache && cache->find(keys[k], out)) continue;
       try {
         RodBatch<double> one = build_batch<double>({s.rods[r]}, s.sim.gravity);
         apply_term_switches(one, 0, g.terms);
@@ -216,6 +264,7 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
           for (int j = 0; j <= n; ++j) out.x.push_back(one.state.node_x[a][one.node_index(0, j)]);
         for (int i = 0; i < 9; ++i)
           for (int e = 0; e <= n; ++e) out.q.push_back(one.state.elem_Q[i][one.elem_index(0, e)]);
+        if (cache && out.error.empty()) cache->put(keys[k], out);
       } catch (const std::exception& e) {
         out.error = e.what();
       }
@@ -379,7 +428,7 @@ void gather_directors(const RodBatch<T>& b, std::vector<T>& out) {
 }
 
 #define MANYRODS_SCENE_INSTANTIATE(T)                                                            \
-  template RodBatch<T> build_scene_batch<T>(const Scene&, bool);                                 \
+  template RodBatch<T> build_scene_batch<T>(const Scene&, bool, StaticCache*);                                 \
   template double scene_dt<T>(const Scene&, const RodBatch<T>&);                                 \
   template void advance_scene<T>(RodBatch<T>&, const StepChoice&, T, std::int64_t, const Exec&); \
   template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);               \

@@ -624,11 +624,11 @@ namespace {
 // (with the initial state, as the run resolves it: stable_dt reads the
 // state, e.g. a static deflection under initial loads)
 template <class T>
-double auto_dt(const Scene& s) {
-  return scene_dt(s, build_scene_batch<T>(s, true));
+double auto_dt(const Scene& s, StaticCache& cache) {
+  return scene_dt(s, build_scene_batch<T>(s, true, &cache));
 }
-double sweep_dt(const Scene& s) {
-  return s.sim.precision == Precision::float32 ? auto_dt<float>(s) : auto_dt<double>(s);
+double sweep_dt(const Scene& s, StaticCache& cache) {
+  return s.sim.precision == Precision::float32 ? auto_dt<float>(s, cache) : auto_dt<double>(s, cache);
 }
 }  // namespace
 
@@ -657,16 +657,6 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
     std::snprintf(name, sizeof name, "chunk-%05d.h5", k);
     out.chunk_files.push_back((dir / name).string());
   }
-  // one dt for all chunks: the scene's, or the smallest auto step over them
-  // (each process resolves its own chunks', then the minimum over all)
-  const Scene base = parse_scene(text, source);
-  double dt = base.sim.dt;
-  if (base.sim.dt_auto) {
-    double local = HUGE_VAL;
-    for (int k = 0; k < out.chunks; ++k)
-      if (mine(k)) local = std::min(local, sweep_dt(make_sweep(text, source, names, chunk_points(k)).scene));
-    dt = shards.min_all(local);
-  }
   std::vector<std::vector<h5::Column>> par(std::size_t(out.chunks)), sum(std::size_t(out.chunks));
   // a finished chunk's file, read back (SceneError when it holds other variations)
   auto read_back = [&](int k) {
@@ -684,6 +674,29 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
     par[std::size_t(k)] = o.sweep_parameters;
     sum[std::size_t(k)] = o.sweep_summary;
   };
+  // one dt for all chunks: the scene's, or the smallest auto step over them
+  // (each process resolves its own chunks', then the minimum over all)
+  // (the static states this pass solves are kept for the chunks' runs, up
+  // to 1 GiB: 4.9 kB per variation of the seed cantilever)
+  const Scene base = parse_scene(text, source);
+  StaticCache statics;
+  double dt = base.sim.dt;
+  if (base.sim.dt_auto) {
+    double local = HUGE_VAL;
+    for (int k = 0; k < out.chunks; ++k) {
+      if (!mine(k)) continue;
+      const std::string& file = out.chunk_files[std::size_t(k)];
+      // a finished chunk ran with the common step: its file says which
+      // (the minimum over all chunks), no need to solve its statics again
+      if (fs::exists(file, ec)) {
+        read_back(k);  // (SceneError for another sweep's chunk)
+        local = std::min(local, h5::Reader(file).output().dt);
+      } else {
+        local = std::min(local, sweep_dt(make_sweep(text, source, names, chunk_points(k)).scene, statics));
+      }
+    }
+    dt = shards.min_all(local);
+  }
   bool stopped = false;
   for (int k = 0; k < out.chunks && !stopped; ++k) {
     if (!mine(k)) continue;
@@ -701,6 +714,7 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
     }
     RunOptions o = opt;
     o.output = file + ".part";
+    o.static_cache = &statics;
     SweepRun r = run_sweep(sw, o);
     if (on_chunk) on_chunk(k, out.chunks, &r.run);
     if (r.run.interrupted) {

@@ -71,6 +71,8 @@ struct RunOptions {
   bool all_frames = true;
   const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
   std::vector<Probe> probes;
+  // static initial states solved before (scene.h StaticCache; not owned)
+  StaticCache* static_cache = nullptr;
   // Called with each new kind of validity violation when it is first seen
   // (host/validity.h; docs/scenes.md "The validity monitor").
   std::function<void(const std::string&)> on_warning;
