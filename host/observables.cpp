@@ -57,7 +57,7 @@ void observe_one(const Observable& ob, Observed& o, std::size_t column, std::siz
   switch (ob.reduce) {
     case R::at:
       for (std::size_t k = 0; k < ob.times.size(); ++k)
-        if (std::llround(ob.times[k] / dt) == step) o.value[column + k] = q;
+        if (step_of(ob.times[k], dt) == step) o.value[column + k] = q;
       break;
     case R::max:
       if (!(q <= v)) v = q;  // (a NaN quantity makes the maximum NaN)
@@ -101,7 +101,8 @@ std::vector<std::int64_t> observation_steps(const std::vector<Observable>& obs, 
   std::vector<std::int64_t> steps;
   for (const Observable& ob : obs)
     if (ob.reduce == Observable::Reduce::at)
-      for (double t : ob.times) steps.push_back(std::llround(t / dt));
+      for (double t : ob.times)
+        if (step_of(t, dt) >= 0) steps.push_back(step_of(t, dt));
   std::sort(steps.begin(), steps.end());
   steps.erase(std::unique(steps.begin(), steps.end()), steps.end());
   return steps;

@@ -307,7 +307,7 @@ class SceneRun {
                                    "written before they could be continued; run it again");
     if (c.probe_count != std::int64_t(probe_list_.size()))
       throw SceneError(s_.source + ": the checkpoint holds records of " + std::to_string(c.probe_count) +
-                       " variations, the sweep has " + std::to_string(opt_.probes.size()));
+                       " variations, the run has " + std::to_string(probe_list_.size()));
     const std::size_t n = std::size_t(c.probe_samples);
     for (std::size_t i = 0; i < probes_.size(); ++i)
       if (c.probe_time[(i + 1) * n - 1] != c.time)

@@ -3,6 +3,8 @@
 
 #include "host/rng.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -299,9 +301,18 @@ Sweep make_sweep(const std::string& text, const std::string& source, std::vector
     sw.first_rod.push_back(int(sw.scene.rods.size()));
     sw.probes.push_back({rod0, rod0, int(sw.scene.rods.size())});
     if (sw.scene.rods.size() > std::size_t(std::numeric_limits<int>::max() / 2))
-      throw SceneError(source + ": the sweep has too many rods");
+      throw SceneError(source + ": the sweep has too many rods (run it in chunks: --chunk N)");
   }
-  check_batch_size(sw.scene);
+  try {
+    check_batch_size(sw.scene);
+  } catch (const SceneError& e) {  // how many variations would fit in half of the memory
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    const double per = double(estimated_batch_bytes(sw.scene)) / double(sw.points.size());
+    const double fit = std::floor(0.5 * double(pages) * double(page) / per);
+    throw SceneError(std::string(e.what()) + "; run the sweep in chunks: --chunk " +
+                     std::to_string(static_cast<long long>(std::clamp(fit, 1.0, 1e6))) +
+                     " (variations that fit in half of it)");
+  }
   return sw;
 }
 

@@ -153,23 +153,37 @@ TEST_P(ElasticaCase, MatchesReferenceAtSecondOrder) {
 
 INSTANTIATE_TEST_SUITE_P(Case1b, ElasticaCase, ::testing::ValuesIn(kTable));
 
+// A bent, curly rod under gravity at its static equilibrium, with the
+// unknowns of its Newton problem and the force buffers (the Jacobian tests).
+struct CurlyRod {
+  RodBatch<double> b;
+  detail::RodDofs d;
+  std::array<Array<double>, 3> f, c;
+  bool converged = false;
+  CurlyRod() {
+    RodSpec s = seed_cantilever(24);
+    s.rest_curvature.assign(23, {3.0, 1.0, 0.5});
+    b = build_batch<double>({s}, {0, 0, -9.81});
+    b.set_node_force(0, 24, {0.02, 0.01, 0});
+    converged = solve_static(b).converged;
+    for (int j = 0; j <= 24; ++j)
+      if (b.model.node_inv_mass[b.node_index(0, j)] != 0) d.node_slots.push_back(b.node_index(0, j));
+    for (int e = 0; e < 24; ++e) d.elem_slots.push_back(b.elem_index(0, e));
+    for (int a = 0; a < 3; ++a) f[a].resize(b.slots(), 0.0), c[a].resize(b.slots(), 0.0);
+  }
+};
+
 TEST(Statics, GroupedJacobianIsTheColumnByColumnOne) {
   // The Newton Jacobian perturbs the unknowns of cells five apart together
   // (host/statics.h residual_jacobian): exact only if each cell's residual
   // depends on the unknowns of cells r − 2 … r + 2 alone. On a bent, curly
   // rod under gravity: the one-column-at-a-time Jacobian is exactly zero
   // beyond that band, and the grouped one equals it.
-  RodSpec s = seed_cantilever(24);
-  s.rest_curvature.assign(23, {3.0, 1.0, 0.5});
-  auto b = build_batch<double>({s}, {0, 0, -9.81});
-  b.set_node_force(0, 24, {0.02, 0.01, 0});
-  ASSERT_TRUE(solve_static(b).converged);
-  detail::RodDofs d;
-  for (int j = 0; j <= 24; ++j)
-    if (b.model.node_inv_mass[b.node_index(0, j)] != 0) d.node_slots.push_back(b.node_index(0, j));
-  for (int e = 0; e < 24; ++e) d.elem_slots.push_back(b.elem_index(0, e));
-  std::array<Array<double>, 3> f, c;
-  for (int a = 0; a < 3; ++a) f[a].resize(b.slots(), 0.0), c[a].resize(b.slots(), 0.0);
+  CurlyRod rod;
+  ASSERT_TRUE(rod.converged);
+  auto &b = rod.b;
+  auto &d = rod.d;
+  auto &f = rod.f, &c = rod.c;
   const Eigen::MatrixXd full = detail::residual_jacobian<kAllTerms>(b, d, f, c, kL, 1e-6, false);
   const Eigen::MatrixXd grouped = detail::residual_jacobian<kAllTerms>(b, d, f, c, kL, 1e-6, true);
   const int first = b.node_index(0, 0);
@@ -194,17 +208,11 @@ TEST(Statics, BandedSolveIsTheDenseLuSolve) {
   // and its banded LU with partial pivoting solves J x = r as the
   // dense LU does: the two solutions agree to the round-off that the
   // condition number allows (κ ε, ten times asserted).
-  RodSpec s = seed_cantilever(24);
-  s.rest_curvature.assign(23, {3.0, 1.0, 0.5});
-  auto b = build_batch<double>({s}, {0, 0, -9.81});
-  b.set_node_force(0, 24, {0.02, 0.01, 0});
-  ASSERT_TRUE(solve_static(b).converged);
-  detail::RodDofs d;
-  for (int j = 0; j <= 24; ++j)
-    if (b.model.node_inv_mass[b.node_index(0, j)] != 0) d.node_slots.push_back(b.node_index(0, j));
-  for (int e = 0; e < 24; ++e) d.elem_slots.push_back(b.elem_index(0, e));
-  std::array<Array<double>, 3> f, c;
-  for (int a = 0; a < 3; ++a) f[a].resize(b.slots(), 0.0), c[a].resize(b.slots(), 0.0);
+  CurlyRod rod;
+  ASSERT_TRUE(rod.converged);
+  auto &b = rod.b;
+  auto &d = rod.d;
+  auto &f = rod.f, &c = rod.c;
   const Eigen::MatrixXd dense = detail::residual_jacobian<kAllTerms>(b, d, f, c, kL, 1e-6, true);
   detail::BandedJacobian J;
   J.plan(d, b.rods[0].offset);

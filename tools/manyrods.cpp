@@ -750,6 +750,7 @@ int main(int argc, char** argv) {
   }
   if (o.force_progress) o.progress = true;
   if (o.no_progress) o.progress = false;
+  omp_set_num_threads(o.threads);  // (for the library's parallel work outside the step too: the static solves)
   try {
     if (c.run->parsed()) return command_run(o);
     if (c.sweep->parsed()) return command_sweep(o);

@@ -88,6 +88,12 @@ void observe(const std::vector<Observable>& obs, Observed& o, double t, std::int
 // The columns' final values.
 std::vector<double> observed_values(const Observed& o);
 
+// The step of time t at step dt, llround(t/dt) (−1 beyond any run).
+inline std::int64_t step_of(double t, double dt) {
+  const double s = t / dt;
+  return s < 9e18 ? std::llround(s) : -1;
+}
+
 // The steps at which `at` observables need a sample, sorted.
 std::vector<std::int64_t> observation_steps(const std::vector<Observable>& obs, double dt);
 
@@ -104,7 +110,7 @@ void observe(const std::vector<Observable>& obs, Observed& o, double t, std::int
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const Observable& ob = obs[i];
     bool needed = ob.reduce != Observable::Reduce::at;
-    for (double at : ob.times) needed = needed || std::llround(at / dt) == step;
+    for (double at : ob.times) needed = needed || step_of(at, dt) == step;
     if (needed) detail::observe_one(ob, o, column, i, t, step, dt, first, quantity(i));
     column += ob.reduce == Observable::Reduce::at ? ob.times.size() : 1;
   }
