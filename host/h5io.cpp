@@ -219,7 +219,9 @@ std::vector<V> read_vector(hid_t loc, const char* name, hid_t type, const std::s
 }
 
 // Opens a manyrods file read-only with clear errors for the usual problems.
-Id open_manyrods(const std::string& path) {
+// The file, checked to be a manyrods file of this version whose root
+// attribute format is `format` ("manyrods": an output, or a sweep's index).
+Id open_manyrods(const std::string& path, const std::string& format = "manyrods") {
   quiet();
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) fail(path, "no such file");
@@ -233,9 +235,23 @@ Id open_manyrods(const std::string& path) {
   if (v != kFormatVersion)
     fail(path, "format_version " + std::to_string(v) + ", this manyrods reads " + std::to_string(kFormatVersion) +
                    (v == 1 ? " (version 1 files, from before 2026-12-02, are not read: rerun the scene)" : ""));
-  if (read_attr_string(f.get(), "format", path, "/") != "manyrods")
-    fail(path, "an HDF5 file, but not a manyrods output (root attribute format is not \"manyrods\")");
+  const std::string found = read_attr_string(f.get(), "format", path, "/");
+  if (found != format)
+    fail(path, format == "manyrods" && found == "manyrods-sweep-index"
+                   ? "a chunked sweep's index, not a run's output (its frames are in its chunk files)"
+                   : "an HDF5 file, but not a manyrods " + std::string(format == "manyrods" ? "output" : "sweep index") +
+                         " (root attribute format is not \"" + format + "\")");
   return f;
+}
+
+// A group of columns (column_group), in the order of its attribute.
+std::vector<Column> read_column_group(hid_t f, const std::string& gp, const std::string& path) {
+  std::vector<Column> out;
+  const Id g = checked(H5Gopen2(f, gp.c_str(), H5P_DEFAULT), H5Gclose, path, "missing group /" + gp);
+  std::stringstream ss(read_attr_string(g.get(), "order", path, "/" + gp + "."));
+  for (std::string n; std::getline(ss, n);)
+    out.push_back({n, read_vector<double>(g.get(), n.c_str(), H5T_NATIVE_DOUBLE, path)});
+  return out;
 }
 
 const char* kEnergyNames[5] = {"kinetic", "elastic", "potential", "dissipated", "dissipation_rate"};
@@ -566,6 +582,34 @@ void write_sweep_index(const std::string& path, const SweepIndex& x) {
   if (ec) fail(path, "cannot rename " + tmp + " to it: " + ec.message());
 }
 
+bool is_sweep_index(const std::string& path) {
+  quiet();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec) || H5Fis_hdf5(path.c_str()) <= 0) return false;
+  const Id f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  return f.ok() && has_attr(f.get(), "format") &&
+         read_attr_string(f.get(), "format", path, "/") == "manyrods-sweep-index";
+}
+
+SweepIndex read_sweep_index(const std::string& path) {
+  const Id f = open_manyrods(path, "manyrods-sweep-index");
+  SweepIndex x;
+  x.parameters = read_column_group(f.get(), "sweep/parameters", path);
+  x.summary = read_column_group(f.get(), "sweep/summary", path);
+  x.statistics = read_column_group(f.get(), "sweep/statistics", path);
+  const std::size_t n = x.parameters.empty() ? 0 : x.parameters[0].values.size();
+  for (const auto* cols : {&x.parameters, &x.summary})
+    for (const Column& c : *cols)
+      if (c.values.size() != n)
+        fail(path, "/sweep/" + std::string(cols == &x.parameters ? "parameters/" : "summary/") + c.name + " has " +
+                       std::to_string(c.values.size()) + " values, " + std::to_string(n) + " variations expected");
+  const Id sg = checked(H5Gopen2(f.get(), "scene", H5P_DEFAULT), H5Gclose, path, "missing group /scene");
+  x.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
+  x.scene_source = read_attr_string(sg.get(), "source", path, "/scene.");
+  x.dt = read_attr_scalar<double>(f.get(), "dt", H5T_NATIVE_DOUBLE, path, "/");
+  return x;
+}
+
 Checkpoint read_checkpoint(const std::string& path) {
   const Id f = open_manyrods(path);
   if (H5Lexists(f.get(), "checkpoint", H5P_DEFAULT) <= 0)
@@ -748,17 +792,10 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   const auto dims = dataset_dims(r.pos.get());
   const std::vector<hsize_t> want{hsize_t(r.frames), hsize_t(o.nodes), 3};
   if (dims != want) fail(path, "/node_position has shape " + dims_str(dims) + ", expected " + dims_str(want));
-  // a group of columns (column_group), in the order of its attribute
-  auto group_columns = [&](const std::string& gp, std::vector<Column>& out) {
-    const Id g = checked(H5Gopen2(f, gp.c_str(), H5P_DEFAULT), H5Gclose, path, "missing group /" + gp);
-    std::stringstream ss(read_attr_string(g.get(), "order", path, "/" + gp + "."));
-    for (std::string n; std::getline(ss, n);)
-      out.push_back({n, read_vector<double>(g.get(), n.c_str(), H5T_NATIVE_DOUBLE, path)});
-  };
-  if (H5Lexists(f, "observables", H5P_DEFAULT) > 0) group_columns("observables", o.observables);
+  if (H5Lexists(f, "observables", H5P_DEFAULT) > 0) o.observables = read_column_group(f, "observables", path);
   if (H5Lexists(f, "sweep", H5P_DEFAULT) > 0) {
     o.has_sweep = true;
-    auto cols = [&](const char* name, std::vector<Column>& out) { group_columns(std::string("sweep/") + name, out); };
+    auto cols = [&](const char* name, std::vector<Column>& out) { out = read_column_group(f, std::string("sweep/") + name, path); };
     cols("parameters", o.sweep_parameters);
     cols("summary", o.sweep_summary);
     {

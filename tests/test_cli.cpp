@@ -721,6 +721,23 @@ TEST(Cli, PlotWritesPngs) {
     ASSERT_GT(s.size(), 1000u) << png;
     EXPECT_EQ(s.substr(1, 3), "PNG") << png;
   }
+  // a chunked sweep's index: its sweep plots, a column without any finite
+  // value (the period of runs too short for it) left out with a note
+  const std::string out = path("plot_index.h5");
+  ASSERT_EQ(cli("sweep " + scene + " --vary rods.0.material.youngs_modulus=1e6,2e6,3e6 --chunk 2 -o " + out).status, 0);
+  const Result ri = cli("plot " + out + " --out-dir " + path("index_plots"));
+  ASSERT_EQ(ri.status, 0) << ri.err;
+  expect_contains(ri.err, "period_s: no finite value in any variation, not plotted");
+  for (const char* png : {"sweep_max_strain.png", "sweep_max_strain_histogram.png", "sweep_tip_deflection_final_m.png"}) {
+    const std::string s = slurp(path(std::string("index_plots/") + png));
+    ASSERT_GT(s.size(), 1000u) << png;
+    EXPECT_EQ(s.substr(1, 3), "PNG") << png;
+  }
+  EXPECT_FALSE(fs::exists(path("index_plots/sweep_period_s.png")));
+  // export has no frames to read there: it says where they are
+  const Result re = cli("export " + out + " --usd " + path("index.usda"));
+  EXPECT_EQ(re.status, 2);
+  expect_contains(re.err, "a chunked sweep's index, not a run's output (its frames are in its chunk files)");
 }
 
 TEST(Cli, BadInputExitsNonZeroWithAClearMessage) {

@@ -214,6 +214,13 @@ void sweep_script(std::ostream& gp, const h5::Output& o, const std::string& dir,
     const std::string& y = o.sweep_summary[c].name;
     if (y.size() > 4 && y.compare(y.size() - 4, 4, "_err") == 0) continue;  // error bars of the next plot
     if (y.size() > 6 && y.compare(y.size() - 6, 6, "_err_s") == 0) continue;
+    // a column without a finite value (a period the runs were too short
+    // for, a crossing never reached) has nothing to plot
+    if (std::none_of(o.sweep_summary[c].values.begin(), o.sweep_summary[c].values.end(),
+                     [](double v) { return std::isfinite(v); })) {
+      std::fprintf(stderr, "manyrods plot: %s: no finite value in any variation, not plotted\n", y.c_str());
+      continue;
+    }
     const int col = int(c) + 3;
     const int err = column(y == "period_s" ? "period_err_s" : y + "_err");
     const std::string png = dir + "/sweep_" + y + ".png";
@@ -284,16 +291,35 @@ int run_gnuplot(const std::string& dir, const std::string& script_text, const st
 }
 
 int plot(const std::string& in, std::string dir) {
+  if (dir.empty()) dir = fs::path(in).replace_extension("").string() + "_plots";
+  auto make_dir = [&] {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec || !fs::is_directory(dir) || access(dir.c_str(), W_OK) != 0) {
+      std::fprintf(stderr, "manyrods plot: --out-dir %s: cannot create or write this directory (%s)\n", dir.c_str(),
+                   ec ? ec.message().c_str() : "not a writable directory");
+      return false;
+    }
+    return true;
+  };
+  if (h5::is_sweep_index(in)) {  // a chunked sweep: its sweep plots (the frames stay in the chunks)
+    const h5::SweepIndex x = h5::read_sweep_index(in);
+    h5::Output o;
+    o.has_sweep = true;
+    o.sweep_parameters = x.parameters;
+    o.sweep_summary = x.summary;
+    o.scene_text = x.scene_text;
+    o.scene_source = x.scene_source;
+    if (!make_dir()) return 2;
+    std::ostringstream gp;
+    gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\n";
+    std::vector<std::string> made;
+    if (!o.sweep_parameters.empty()) sweep_script(gp, o, dir, made);
+    return run_gnuplot(dir, gp.str(), made);
+  }
   const h5::Reader rd(in);
   const h5::Output& o = rd.output();
-  if (dir.empty()) dir = fs::path(in).replace_extension("").string() + "_plots";
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir) || access(dir.c_str(), W_OK) != 0) {
-    std::fprintf(stderr, "manyrods plot: --out-dir %s: cannot create or write this directory (%s)\n", dir.c_str(),
-                 ec ? ec.message().c_str() : "not a writable directory");
-    return 2;
-  }
+  if (!make_dir()) return 2;
   const std::vector<int> shown = shown_rods(o);
   const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
   write_plot_data(rd, shown, tips, energy);

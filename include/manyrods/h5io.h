@@ -146,6 +146,10 @@ struct SweepIndex {
   bool float32 = false, directors = false;
 };
 void write_sweep_index(const std::string& path, const SweepIndex& index);
+// Whether path is a sweep index (format "manyrods-sweep-index"), and its
+// parameters, summary, statistics, scene and dt (H5Error for a damaged one).
+bool is_sweep_index(const std::string& path);
+SweepIndex read_sweep_index(const std::string& path);
 
 class Writer {
  public:
