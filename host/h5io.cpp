@@ -565,7 +565,7 @@ void write_sweep_index(const std::string& path, const SweepIndex& x) {
     }
     attr_string(g.get(), "chunk_files", lines(x.chunk_files), tmp);
     write_vector(g.get(), "chunk_first_variation", H5T_NATIVE_INT64, x.chunk_first, tmp);
-    if (!x.chunk_nodes.empty()) {
+    if (!x.chunk_nodes.empty() && !x.time.empty()) {  // (a sweep without frames: none to present)
       if (x.chunk_nodes.size() != x.chunk_files.size() || x.chunk_elements.size() != x.chunk_files.size())
         fail(tmp, "sweep index: chunk sizes do not match the chunk files");
       write_vector(f.get(), "time", H5T_NATIVE_DOUBLE, x.time, tmp);

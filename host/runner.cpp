@@ -97,7 +97,8 @@ class SceneRun {
     // the frame grid (then the restarted file's frames are exactly those of
     // the uninterrupted run from there on); not for a resumed run, whose
     // last part holds it.
-    if (b_.state.steps % per_frame_ == 0 && !opt_.resume) write_frame(*w, scene_energies(b_, choice_));
+    if (b_.state.steps % per_frame_ == 0 && !opt_.resume && opt_.frames != RunOptions::Frames::none)
+      write_frame(*w, scene_energies(b_, choice_));
     if (restart_ && !probe_list_.empty()) restore_probes(*restart_);
     else sample_probes(true);
     if (!opt_.probes.empty()) start_ = b_.state;
@@ -177,7 +178,9 @@ class SceneRun {
   // About what the output will hold: the frames from here to the end
   // (positions, directors, energy rows) and the checkpoint (the state).
   std::uint64_t output_bytes() const {
-    const std::uint64_t frames = opt_.all_frames ? std::uint64_t((total_ - b_.state.steps) / per_frame_ + 2) : 2;
+    const std::uint64_t frames = opt_.frames == RunOptions::Frames::all
+                                     ? std::uint64_t((total_ - b_.state.steps) / per_frame_ + 2)
+                                     : opt_.frames == RunOptions::Frames::ends ? 2 : 0;
     const std::uint64_t nodes = std::uint64_t(b_.element_count() + b_.rod_count());
     const std::uint64_t per_frame =
         sizeof(T) * (3 * nodes + (s_.sim.output_directors ? 9 * std::uint64_t(b_.element_count()) : 0)) + 8 * 8;
@@ -380,9 +383,11 @@ class SceneRun {
       last_rate_ = e.dissipation;
       if (!probe_list_.empty()) sample_probes(false);
       check_validity(e);
-      // (the frame points stay sample points without all_frames: the probes'
-      // samples, and so a sweep's summary, do not depend on it)
-      if ((opt_.all_frames && step % per_frame_ == 0) || step == total_) write_frame(*w, e);
+      // (the frame points stay sample points whichever frames are written:
+      // the probes' samples, and so a sweep's summary, do not depend on it)
+      if (opt_.frames != RunOptions::Frames::none &&
+          ((opt_.frames == RunOptions::Frames::all && step % per_frame_ == 0) || step == total_))
+        write_frame(*w, e);
       const auto now = clock::now();
       if (parts_ && step < total_ && std::chrono::duration<double>(now - part_start_).count() >= opt_.checkpoint_every)
         roll(w);

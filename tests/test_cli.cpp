@@ -654,6 +654,25 @@ TEST(Cli, SweepRandomSamplingIsReproducible) {
   const Result all = cli("sweep " + scene + " --vary rods.0.length=0.2,0.3 --frames all -o " + path("all.h5"));
   ASSERT_EQ(all.status, 0) << all.err;
   EXPECT_EQ(h5::Reader(path("all.h5")).frames(), 6);
+  // --frames none: no frame, the same summary, a checkpoint to continue,
+  // and a chunked index without frames to present
+  const Result ends = cli("sweep " + scene + " --vary rods.0.length=0.2,0.3 -o " + path("ends.h5"));
+  const Result none = cli("sweep " + scene + " --vary rods.0.length=0.2,0.3 --frames none -o " + path("none.h5"));
+  ASSERT_EQ(none.status, 0) << none.err;
+  const h5::Reader rn(path("none.h5")), re(path("ends.h5"));
+  EXPECT_EQ(rn.frames(), 0);
+  EXPECT_EQ(re.frames(), 2);
+  ASSERT_EQ(rn.output().sweep_summary.size(), re.output().sweep_summary.size());
+  for (std::size_t c = 0; c < re.output().sweep_summary.size(); ++c)
+    EXPECT_EQ(std::memcmp(rn.output().sweep_summary[c].values.data(), re.output().sweep_summary[c].values.data(),
+                          8 * re.output().sweep_summary[c].values.size()),
+              0)
+        << re.output().sweep_summary[c].name;
+  EXPECT_EQ(h5::read_checkpoint(path("none.h5")).steps, h5::read_checkpoint(path("ends.h5")).steps);
+  const Result chunked = cli("sweep " + scene + " --vary rods.0.length=0.2,0.3 --frames none --chunk 1 -o " +
+                             path("none_chunked.h5"));
+  ASSERT_EQ(chunked.status, 0) << chunked.err;
+  EXPECT_EQ(h5::read_sweep_index(path("none_chunked.h5")).summary.size(), re.output().sweep_summary.size());
   ASSERT_EQ(a.size(), 2u);
   EXPECT_EQ(a[0].values, b[0].values);
   EXPECT_NE(a[0].values, c[0].values);

@@ -320,12 +320,18 @@ int plot(const std::string& in, std::string dir) {
   const h5::Reader rd(in);
   const h5::Output& o = rd.output();
   if (!make_dir()) return 2;
-  const std::vector<int> shown = shown_rods(o);
-  const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
-  write_plot_data(rd, shown, tips, energy);
   std::ostringstream gp;
-  tips_and_energy_script(gp, o, dir, shown, tips, energy);
-  std::vector<std::string> made = {dir + "/tips.png", dir + "/energy.png"};
+  std::vector<std::string> made;
+  if (rd.frames() > 0) {
+    const std::vector<int> shown = shown_rods(o);
+    const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
+    write_plot_data(rd, shown, tips, energy);
+    tips_and_energy_script(gp, o, dir, shown, tips, energy);
+    made = {dir + "/tips.png", dir + "/energy.png"};
+  } else {  // (a sweep with --frames none)
+    std::fprintf(stderr, "manyrods plot: %s has no frames: no tips or energies to plot\n", in.c_str());
+    gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\n";
+  }
   if (o.has_sweep && !o.sweep_parameters.empty()) sweep_script(gp, o, dir, made);
   return run_gnuplot(dir, gp.str(), made);
 }
@@ -454,8 +460,8 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
       ->check(non_negative);
   sweep->add_option("--frames", o.frames,
                     "ends (default): frames of the first and last step only; all: every output_interval (large: "
-                    "every variation's every node)")
-      ->check(CLI::IsMember({"ends", "all"}));
+                    "every variation's every node); none: the summary and checkpoint only")
+      ->check(CLI::IsMember({"ends", "all", "none"}));
   sweep->add_option("--chunk", o.chunk,
                     "run the variations this many at a time, each chunk a file in <output>.chunks/ (the output "
                     "becomes their index; the same command continues an interrupted sweep)")
@@ -542,7 +548,7 @@ int command_run(const Options& o) {
       const Sweep sw = sweep_of_checkpoint(c, o.restart);
       RunOptions so = opt;
       so.checkpoint_every = 0;  // (sweeps are written in one piece)
-      so.all_frames = false;    // (a sweep's frames: its ends)
+      so.frames = RunOptions::Frames::ends;  // (a sweep's frames: its ends)
       return run_sweep(sw, so, o.csv, &c);
     }
     if (!o.csv.empty()) {
@@ -688,7 +694,7 @@ int command_sweep(const Options& o) {
   const Design design = make_design(o.design, o.samples, o.seed);
   RunOptions opt = run_options(o);
   opt.checkpoint_every = 0;  // sweeps are written in one piece (a checkpoint at the end, Ctrl-C, --until)
-  opt.all_frames = o.frames == "all";
+  opt.frames = o.frames == "all" ? RunOptions::Frames::all : o.frames == "none" ? RunOptions::Frames::none : RunOptions::Frames::ends;
   if (o.chunk > 0) return chunked_sweep(o, vs, design, opt);
   if (launched_by_mpi())
     throw SceneError("sweep: under mpirun or srun the ranks share a sweep's chunks: give --chunk C");

@@ -66,9 +66,12 @@ struct RunOptions {
   double duration = -1;   // overrides [simulation] duration when > 0
   bool progress = false;  // progress line on stderr
   bool profile = false;   // time each stage of the step (RunResult::stages)
-  // false: frames of the first and last step only (a sweep's default: its
-  // summary comes from the probes, sampled every 64 steps, not the frames)
-  bool all_frames = true;
+  // Which frames are written: every output_interval; the first and last
+  // step's only (a sweep's default: its summary comes from the probes,
+  // sampled every 64 steps, not the frames); or none (the file holds the
+  // checkpoint, and a sweep's summary, only)
+  enum class Frames { all, ends, none };
+  Frames frames = Frames::all;
   const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
   std::vector<Probe> probes;
   // static initial states solved before (scene.h StaticCache; not owned)

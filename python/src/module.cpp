@@ -726,8 +726,8 @@ NB_MODULE(_core, m) {
           [](const Scene& s, const std::vector<std::string>& vary, const std::string& output, int samples,
              std::uint64_t seed, int threads, std::optional<double> duration, std::optional<std::string> design,
              const std::string& frames) {
-            if (frames != "ends" && frames != "all")
-              throw manyrods::scene::SceneError("sweep: frames = '" + frames + "': expected 'ends' or 'all'");
+            if (frames != "ends" && frames != "all" && frames != "none")
+              throw manyrods::scene::SceneError("sweep: frames = '" + frames + "': expected 'ends', 'all' or 'none'");
             std::vector<manyrods::scene::Vary> vs;
             for (const std::string& v : vary) vs.push_back(manyrods::scene::parse_vary(v));
             const manyrods::scene::Design des = manyrods::scene::make_design(design.value_or(""), samples, seed);
@@ -736,7 +736,9 @@ NB_MODULE(_core, m) {
               nb::gil_scoped_release release;
               const manyrods::scene::Sweep sw = manyrods::scene::make_sweep(s.text, s.source, vs, des);
               manyrods::scene::RunOptions opt = run_options(output, threads, duration, 0, false);
-              opt.all_frames = frames == "all";
+              opt.frames = frames == "all"    ? manyrods::scene::RunOptions::Frames::all
+                           : frames == "none" ? manyrods::scene::RunOptions::Frames::none
+                                              : manyrods::scene::RunOptions::Frames::ends;
               r = manyrods::scene::run_sweep(sw, opt);
             }
             nb::dict d;
@@ -757,7 +759,7 @@ NB_MODULE(_core, m) {
           "duration"_a = nb::none(), "design"_a = nb::none(), "frames"_a = "ends",
           "A parameter sweep (`manyrods sweep`): vary = ['rods.0.damping.tau_extension=0:0.05:5', "
           "'rods.0.material.youngs_modulus=lognormal:1e6:0.2', …], design = 'grid' | 'mc' | 'lhs' | 'sobol' "
-          "(default: grid, or mc with samples), frames = 'ends' (first and last step) or 'all'; returns the "
+          "(default: grid, or mc with samples), frames = 'ends' (first and last step), 'all' or 'none'; returns the "
           "parameters, the per-variation summary and its statistics as NumPy arrays");
 
   m.def("load_scene", &manyrods::scene::load_scene, "path"_a, "Read and validate a TOML scene file");
