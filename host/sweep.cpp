@@ -481,8 +481,8 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
     const std::vector<double> observed = observed_values(r.observed);
     for (std::size_t k = builtin; k < c.size(); ++k) c[k].values.push_back(observed[k - builtin]);
     if (std::isfinite(r.failed_at))  // frozen since: no observable of it means anything
-      for (std::size_t k = 0; k < c.size(); ++k)
-        if (k != 11) c[k].values.back() = kNaN;
+      for (h5::Column& col : c)
+        if (col.name != "failed_at_s") col.values.back() = kNaN;
   }
   return c;
 }
@@ -669,7 +669,8 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
     out.chunk_files.push_back((dir / name).string());
   }
   std::vector<std::vector<h5::Column>> par(std::size_t(out.chunks)), sum(std::size_t(out.chunks));
-  // a finished chunk's file, read back (SceneError when it holds other variations)
+  // a finished chunk's file, read back (SceneError when it holds other
+  // variations); returns the step it ran with
   auto read_back = [&](int k) {
     const std::vector<std::vector<double>> pts = chunk_points(k);
     const h5::Reader rd(out.chunk_files[std::size_t(k)]);
@@ -684,6 +685,7 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
                        " of this sweep (another sweep's chunks? remove " + dir.string() + " to start anew)");
     par[std::size_t(k)] = o.sweep_parameters;
     sum[std::size_t(k)] = o.sweep_summary;
+    return o.dt;
   };
   // one dt for all chunks: the scene's, or the smallest auto step over them
   // (each process resolves its own chunks', then the minimum over all)
@@ -700,8 +702,7 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
       // a finished chunk ran with the common step: its file says which
       // (the minimum over all chunks), no need to solve its statics again
       if (fs::exists(file, ec)) {
-        read_back(k);  // (SceneError for another sweep's chunk)
-        local = std::min(local, h5::Reader(file).output().dt);
+        local = std::min(local, read_back(k));  // (SceneError for another sweep's chunk)
       } else {
         local = std::min(local, sweep_dt(make_sweep(text, source, names, chunk_points(k)).scene, statics));
       }
@@ -712,8 +713,8 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
   for (int k = 0; k < out.chunks && !stopped; ++k) {
     if (!mine(k)) continue;
     const std::string& file = out.chunk_files[std::size_t(k)];
-    if (fs::exists(file, ec)) {  // finished before
-      read_back(k);
+    if (fs::exists(file, ec)) {  // finished before (read back already by the dt pass, if any)
+      if (par[std::size_t(k)].empty()) read_back(k);
       ++out.reused;
       if (on_chunk) on_chunk(k, out.chunks, nullptr);
       continue;
