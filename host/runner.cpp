@@ -423,6 +423,12 @@ class SceneRun {
     }
   }
 
+  // The slots [first, last) of rod r, its ghosts included.
+  std::pair<int, int> rod_slots(int r) const {
+    const int first = b_.rods[std::size_t(r)].offset;
+    return {first, r + 1 < b_.rod_count() ? b_.rods[std::size_t(r) + 1].offset : b_.slots()};
+  }
+
   // Variation p's rods back to their state at the run's start, at rest
   // (reset; a continued run's checkpoint holds that state already), every
   // unknown fixed (zero inverse masses), so that they no longer move (it
@@ -431,8 +437,7 @@ class SceneRun {
   void freeze(std::size_t p, double t, bool reset = true) {
     const Probe& pr = opt_.probes[p];
     for (int r = pr.rods_begin; r < pr.rods_end; ++r) {
-      const int first = b_.rods[std::size_t(r)].offset;
-      const int last = r + 1 < b_.rod_count() ? b_.rods[std::size_t(r) + 1].offset : b_.slots();
+      const auto [first, last] = rod_slots(r);
       for (int k = first; k < last; ++k) {
         for (int a = 0; a < 3; ++a) b_.model.elem_inv_inertia[a][k] = T(0);
         b_.model.node_inv_mass[k] = T(0);
@@ -470,16 +475,12 @@ class SceneRun {
         if (!std::isfinite(s.elem_Q[a][k])) return false;
       return true;
     };
-    auto slots = [&](int r) {  // [first, last) of rod r, its ghosts included
-      const int first = b_.rods[std::size_t(r)].offset;
-      return std::pair<int, int>{first, r + 1 < b_.rod_count() ? b_.rods[std::size_t(r) + 1].offset : b_.slots()};
-    };
     bool any = false;
     for (std::size_t p = 0; p < opt_.probes.size(); ++p) {
       const Probe& pr = opt_.probes[p];
       bool bad = false;
       for (int r = pr.rods_begin; r < pr.rods_end && !bad; ++r)
-        for (int k = slots(r).first; k < slots(r).second && !bad; ++k) bad = !finite_slot(k);
+        for (int k = rod_slots(r).first; k < rod_slots(r).second && !bad; ++k) bad = !finite_slot(k);
       if (!bad) continue;
       any = true;
       freeze(p, b_.state.time);
