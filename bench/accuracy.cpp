@@ -45,7 +45,7 @@
 #include <vector>
 
 #include "scenes.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 

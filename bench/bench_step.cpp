@@ -23,7 +23,7 @@ using namespace manyrods::bench;
 namespace {
 
 // Arrays (each one value per slot) read or written by one step, counted from
-// host/integrators.h: 2 drifts (read x, v, Q, ω; write x, Q: 18 reads + 12 writes
+// host/core/step/integrators.h: 2 drifts (read x, v, Q, ω; write x, Q: 18 reads + 12 writes
 // each), resultants (read x (6: k and k+1), v (6), Q (18: k and k−1),
 // ω (6), 28 model arrays; write 12 scratch), kick (read 12 scratch (+6
 // neighbours), 7 model arrays, 6 loads; read/write v, ω (12)). Neighbour
@@ -136,7 +136,7 @@ BENCHMARK(BM_step_hairturn_double)->ArgName("threads")->Arg(1)->Arg(2)->UseRealT
 BENCHMARK(BM_step64_hairturn_float)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->MinTime(0.5);
 
 // Float with IEEE subnormals (Exec::flush_subnormals = false): against the
-// same benchmarks without _ieee, what the flush gains (host/fp_env.h).
+// same benchmarks without _ieee, what the flush gains (host/core/step/fp_env.h).
 void BM_ieee_step64_hair_nokv_float(benchmark::State& s) {
   run_step<float, kNoKV, Viscous::implicit, 64>(s, "hair", false, false);
 }

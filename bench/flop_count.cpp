@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "kernels/viscous_implicit_partitioned.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 namespace {
 

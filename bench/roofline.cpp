@@ -7,13 +7,13 @@
 #include <cstddef>
 #include <vector>
 
-#include "host/roofline.h"
+#include "host/core/isa/roofline.h"
 
 namespace {
 
 using namespace manyrods;
 
-// Register-resident fused multiply-adds (host/roofline.h), compiled with
+// Register-resident fused multiply-adds (host/core/isa/roofline.h), compiled with
 // the benchmark's flags.
 template <class T>
 void BM_peak_fma(benchmark::State& state) {
@@ -26,7 +26,7 @@ void BM_peak_fma(benchmark::State& state) {
 }
 
 // STREAM triad a = b + s·c over arrays far larger than the caches
-// (host/roofline.h; 3 arrays counted, no write-allocate).
+// (host/core/isa/roofline.h; 3 arrays counted, no write-allocate).
 template <class T>
 void BM_stream_triad(benchmark::State& state) {
   const int threads = int(state.range(0));

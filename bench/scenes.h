@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 namespace manyrods::bench {
 

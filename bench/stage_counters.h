@@ -9,7 +9,7 @@
 
 #include <string>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 namespace manyrods::bench {
 

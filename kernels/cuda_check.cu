@@ -22,7 +22,7 @@ __global__ void stage_kernel(int slots, ModelView<T> m, ConstStateView<T> s, Scr
   voronoi_stage<kT>(k, m, s, out);
 }
 
-// kEulerOrder 2: Position Verlet's kick; 4: PEFRL's (host/integrators.h).
+// kEulerOrder 2: Position Verlet's kick; 4: PEFRL's (host/core/step/integrators.h).
 template <unsigned kMask, int kEulerOrder, class T>
 __global__ void kick_kernel(int slots, T h, ModelView<T> m, LoadsView<T> l, ConstScratchView<T> sc,
                             StateView<T> s) {
@@ -78,7 +78,7 @@ __global__ void viscous_lanes_kernel(int groups, const int* first, const int* ce
 }
 
 // Contact (kernels/contact.h): one thread per slot for each of its three
-// passes (count, impulses, apply), as host/contact_stage.h runs them.
+// passes (count, impulses, apply), as host/core/step/contact_stage.h runs them.
 template <bool kColliders, bool kRods, class T>
 __global__ void contact_kernel(int slots, int pass, T h, ModelView<T> m, StateView<T> s, ContactView<T> cv) {
   const int k = blockIdx.x * blockDim.x + threadIdx.x;

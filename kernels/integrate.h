@@ -7,7 +7,7 @@
 // round-off. Clamped and ghost entries have m⁻¹ = J⁻¹ = 0, so the kicks never
 // move them (the clamp frame lives in a ghost element with ω = 0: exp(0) = I
 // exactly); a driven root's node 0 and clamp frame carry the velocities the
-// host gives them (host/root_motion.h apply_root_motion) and drift with them.
+// host gives them (host/core/step/root_motion.h apply_root_motion) and drift with them.
 //
 // reads/writes: node_x, node_v (node k), elem_Q, elem_w (element k)
 // reads: node_mass, node_inv_mass, elem_inv_inertia, loads, scratch
@@ -49,7 +49,7 @@ MANYRODS_HD inline void kinematic_node(int k, T h, const StateView<T>& s) {
 // headers)"). One Newton–Schulz step, Q ← Q + ½(I − QQᵀ)Q,
 // halves the digits of the defect (quadratic convergence to the orthonormal
 // polar factor); the host applies it to float batches every
-// kFloatFrameRenormalization steps (host/stages.h), so the defect stays at
+// kFloatFrameRenormalization steps (host/core/step/stages.h), so the defect stays at
 // ~1e-6, for ~6 extra FLOP per element-step. Fixed frames (clamp, ghosts:
 // zero inverse inertia) are left as they are.
 inline constexpr int kFloatFrameRenormalization = 16;

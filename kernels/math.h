@@ -94,7 +94,7 @@ MANYRODS_HD inline vec3<T> mul(const mat3<T>& q, vec3<T> a) {
           q.m[6] * a.x + q.m[7] * a.y + q.m[8] * a.z};
 }
 // t + Q a, summed from t (the order in which a rigid motion p ↦ R p + c is
-// applied to a point; host/root_motion.h)
+// applied to a point; host/core/step/root_motion.h)
 template <class T>
 MANYRODS_HD inline vec3<T> mul_add(const mat3<T>& q, vec3<T> a, vec3<T> t) {
   return {t.x + q.m[0] * a.x + q.m[1] * a.y + q.m[2] * a.z,
@@ -137,7 +137,7 @@ MANYRODS_HD inline mat3<T> mul_transpose(const mat3<T>& a, const mat3<T>& b) {
 // branch and no transcendental call, so that kernels vectorize; the general
 // functions below use the same polynomials in that range and exact formulas
 // outside it. Launchers run the small-angle kernels in SIMD loops and redo
-// the rare larger rotations with the general kernels (host/launch.h).
+// the rare larger rotations with the general kernels (host/core/step/launch.h).
 inline constexpr double kSmallRotation2 = 0.25;             // θ² bound of the small paths
 inline constexpr double kSmallRotationCos = 0.8775825618903728;  // cos ½
 

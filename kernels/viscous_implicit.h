@@ -163,7 +163,7 @@ MANYRODS_HD inline void voronoi_maps(int k, T stiff_h, const ModelView<T>& m, co
 // = 0 with R = Q_k Q_{k−1}ᵀ). With u = ū + w the system becomes
 // (M + hD) w⁺ = M w⁻ with w = 0 at the root: the solve of a clamped rod, on
 // w. The host subtracts ū (sign −1), solves, and adds it back (sign +1),
-// putting the root's own values back (host/implicit_solve.h viscous_update). Solving
+// putting the root's own values back (host/core/step/implicit_solve.h viscous_update). Solving
 // for w rather than moving D_fp u_p to the right-hand side also keeps the
 // stiff rods' direct form from cancelling h²K v₀ against itself: a rod
 // carried at v has w⁻ equal to the still rod's u⁻ up to round-off

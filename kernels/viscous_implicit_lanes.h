@@ -48,7 +48,7 @@
 // again, after the loop, by the same code with the general log
 // (joint_log<false>, as voronoi_strain<false>), which gives bit-for-bit the
 // same values where the small path is valid (kernels/math.h), as
-// host/launch.h launch_with_fallback does.
+// host/core/step/launch.h launch_with_fallback does.
 //
 // Fixed unknowns (zero inverse mass: a clamped node, a ghost element) become
 // identity rows with u = 0, per lane, as in the scalar kernel.
@@ -549,7 +549,7 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
                                                const ImplicitScratchView<Tc>& sc) {
   using namespace lanes_detail;
   // Local copies of the views: no store in the lane loops can alias them, so
-  // their pointers stay in registers (as in host/launch.h).
+  // their pointers stay in registers (as in host/core/step/launch.h).
   const ModelView<T> mv = m;
   const ConstStateView<T> cs = as_const(s);
   const ImplicitScratchView<Tc> scv = sc;

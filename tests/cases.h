@@ -9,7 +9,7 @@
 #include <numbers>
 #include <vector>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 namespace manyrods::cases {
 

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <string>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 #include "reference.h"
 
 namespace manyrods::testing {

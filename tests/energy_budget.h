@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 namespace manyrods::testing {
 

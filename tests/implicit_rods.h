@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "check.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 namespace manyrods::testing {
 

@@ -9,7 +9,7 @@
 #include <Eigen/Dense>
 #include <vector>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 namespace manyrods::testing {
 

@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 #include "reference.h"
 
 namespace manyrods::testing {

@@ -1,4 +1,4 @@
-// advance() (host/integrators.h): many steps with a watch for non-finite states.
+// advance() (host/core/step/integrators.h): many steps with a watch for non-finite states.
 // A state that goes non-finite stops the run with a NonFiniteError that
 // names the first rod (index and name), node or element, the step and the
 // simulated time — checked here against an independent step-by-step run.

@@ -31,7 +31,7 @@ RodSpec seed_beam(int n, Damping damping = Damping::none()) {
   return s;
 }
 
-// Rectangle: Cowper's shear coefficient (host/material.cpp).
+// Rectangle: Cowper's shear coefficient (host/core/model/material.cpp).
 constexpr double kKappa = 10 * (1 + kNu) / (12 + 11 * kNu);
 
 std::vector<double> bending_x(int n) {

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 #include "manyrods/any_batch.h"
 #include "manyrods/curves.h"
 #include "manyrods/scene.h"

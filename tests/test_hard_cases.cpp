@@ -24,7 +24,7 @@
 #include <string>
 
 #include "cases.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::cases;

@@ -43,7 +43,7 @@
 
 #include "check.h"
 #include "implicit_rods.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::testing;
@@ -72,7 +72,7 @@ std::vector<RodSpec> lane_rods(std::mt19937& rng, int W, const std::vector<int>&
 
 // The lanes kernel on batch b, always through this one compiled copy: two
 // inlined copies may contract a·b + c into FMAs differently (the library's
-// implicit stage, host/implicit_solve.h, calls it from one place too).
+// implicit stage, host/core/step/implicit_solve.h, calls it from one place too).
 template <Terms kT, int W, class T>
 __attribute__((noinline)) void lanes_solve(RodBatch<T>& b, const int* first, const int* cells, T h,
                                            const T* stiff_h) {
@@ -189,7 +189,7 @@ std::vector<RodSpec> mixed_rods(unsigned seed) {
 
 // One step: `lanes` by step_n (rod-per-lane solve where the groups allow),
 // against the same stages with the scalar solve on a copy taken before the
-// step (step_n, host/integrators.h); velocities to the round-off bound of the header,
+// step (step_n, host/core/step/integrators.h); velocities to the round-off bound of the header,
 // positions and frames to what that difference moves them in the last drift.
 template <class T>
 void step_matches_scalar(RodBatch<T>& lanes, T dt, int threads, Checker& ck_u, Checker& ck_x, int step_no) {

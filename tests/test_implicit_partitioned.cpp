@@ -1,5 +1,5 @@
 // The partitioned solve of one long rod (kernels/viscous_implicit_partitioned.h,
-// host/implicit_solve.h solve_partitioned) against the scalar kernel
+// host/core/step/implicit_solve.h solve_partitioned) against the scalar kernel
 // (kernels/viscous_implicit.h viscous_implicit_rod):
 //   * with short partitions (k = 5 and 8 cells) on random curved, moving
 //     rods — clamped and free roots, a clamped tip (fixed unknowns in the
@@ -32,9 +32,9 @@
 #include <vector>
 
 #include "check.h"
-#include "host/implicit_solve.h"
+#include "host/core/step/implicit_solve.h"
 #include "implicit_rods.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::testing;

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "cases.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 

@@ -19,7 +19,7 @@
 
 #include "cases.h"
 #include "energy_budget.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::cases;

@@ -102,6 +102,14 @@ void agree(const std::string& what) {
   }
 }
 
+// A build with the baseline path only (MANYRODS_ISA empty, the default)
+// has nothing to compare it with: those tests say "skipped", not passed.
+// tools/run-isa-check builds the portable library with the levels.
+#define MANYRODS_SKIP_WITHOUT_PATHS()                                                               \
+  if (step_paths().size() < 2)                                                                      \
+  GTEST_SKIP() << "this build has the baseline step path only (MANYRODS_ISA is empty): nothing to " \
+                  "compare it with; tools/run-isa-check builds one with x86-64-v2, v3 and v4"
+
 }  // namespace
 
 TEST(StepPaths, BaselineFirstAndOneActive) {
@@ -122,14 +130,17 @@ TEST(StepPaths, BaselineFirstAndOneActive) {
 }
 
 TEST(StepPaths, EveryPathAgreesWithTheBaselineVerlet) {
+  MANYRODS_SKIP_WITHOUT_PATHS();
   agree<double>("verlet");
   agree<float>("verlet");
 }
 TEST(StepPaths, EveryPathAgreesWithTheBaselinePefrl) {
+  MANYRODS_SKIP_WITHOUT_PATHS();
   agree<double>("pefrl");
   agree<float>("pefrl");
 }
 TEST(StepPaths, EveryPathAgreesWithTheBaselineContact) {
+  MANYRODS_SKIP_WITHOUT_PATHS();
   agree<double>("contact");
   agree<float>("contact");
 }

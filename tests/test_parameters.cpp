@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "cases.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 
@@ -47,7 +47,7 @@ Material material(double E, double nu, double rho = 1000) {
 }
 
 // The retardation times computed here from (η, ζ), independently
-// of host/material.cpp: G = E/(2(1+ν)), K = E/(3(1−2ν)), τS = η/G, τB = ζ/K,
+// of host/core/model/material.cpp: G = E/(2(1+ν)), K = E/(3(1−2ν)), τS = η/G, τB = ζ/K,
 // τE = [(1−2ν)τB + 2(1+ν)τS]/3. At ν = ½, K = ∞ and τB = ζ/∞ = 0 (IEEE).
 struct Taus {
   double shear, bulk, extension;

@@ -15,7 +15,7 @@
 
 #include <Eigen/Dense>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 

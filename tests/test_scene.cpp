@@ -12,7 +12,7 @@
 #include "cases.h"
 #include "manyrods/mesh.h"
 #include "manyrods/scene.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::scene;

@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 

@@ -1,4 +1,4 @@
-// stable_dt (host/stable_dt.h) against the exact linear limit 2/ω_max of the
+// stable_dt (host/core/analysis/stable_dt.h) against the exact linear limit 2/ω_max of the
 // eigenproblem (tests/linear.h), and a check that it really is stable.
 #include <gtest/gtest.h>
 
@@ -210,7 +210,7 @@ TEST(StableDt, ExplicitViscousEstimateAgainstTheTrueLimit) {
 TEST(StableDt, StiffHairEstimateAgainstTheTrueLimitByBisection) {
   // Stiff rods (RodSpec::stiff_implicit): shear, stretch and twist implicit,
   // so the linear limit is the flexural one of the unshearable, inextensible
-  // rod (host/stable_dt.h), ≈ 1e4 × the explicit shear/rotary limit of the
+  // rod (host/core/analysis/stable_dt.h), ≈ 1e4 × the explicit shear/rotary limit of the
   // same hair (4e-8 s). The estimate is a LINEAR bound at the state it is
   // given, so it is probed here without gravity (the probe's 4000 steps of
   // ~5e-4 s would otherwise be 2 s of large swinging, a different question,

@@ -1,6 +1,6 @@
 // docs/validation.md "1a Pure bending into a circle" and "1b Large-deflection
 // cantilever (elastica)" — statics: pure bending into a circle and the
-// large-deflection cantilever (1b), solved by Newton (host/statics.h).
+// large-deflection cantilever (1b), solved by Newton (host/core/analysis/statics.h).
 #include <gtest/gtest.h>
 
 #include <random>
@@ -11,7 +11,7 @@
 #include <numbers>
 
 #include "cases.h"
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 using namespace manyrods::cases;
@@ -175,7 +175,7 @@ struct CurlyRod {
 
 TEST(Statics, GroupedJacobianIsTheColumnByColumnOne) {
   // The Newton Jacobian perturbs the unknowns of cells five apart together
-  // (host/statics.h residual_jacobian): exact only if each cell's residual
+  // (host/core/analysis/statics.h residual_jacobian): exact only if each cell's residual
   // depends on the unknowns of cells r − 2 … r + 2 alone. On a bent, curly
   // rod under gravity: the one-column-at-a-time Jacobian is exactly zero
   // beyond that band, and the grouped one equals it.

@@ -8,7 +8,7 @@
 #include <random>
 #include <utility>
 
-#include "manyrods/advanced.h"
+#include "host/core/advanced.h"
 
 using namespace manyrods;
 

@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  // 1. Static equilibrium under the tip force (Newton, host/statics.h).
+  // 1. Static equilibrium under the tip force (Newton, host/core/analysis/statics.h).
   b.set_node_force(0, n, {F, 0, 0});
   const StaticResult st = solve_static(b);
   if (!st.converged) {

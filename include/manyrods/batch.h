@@ -137,7 +137,7 @@ struct Segment {
 // two elements around a clamped interior node; −1: none), and the node and
 // frames it was built with (the pose-identity ones). `reference`: the
 // implicit solve of its rod runs relative to this hold's rigid motion
-// (host/implicit_solve.h): a driven root, else the one driven hold of a
+// (host/core/step/implicit_solve.h): a driven root, else the one driven hold of a
 // stiff rod.
 struct DrivenHold {
   int rod = 0;
@@ -184,7 +184,7 @@ struct RodInfo {
   bool driven = false;          // some hold on a motion (entries of RodBatch::driven)
   // held unknowns with prescribed, possibly non-zero, velocities besides the
   // reference hold (DrivenHold::reference): its implicit solve is the scalar
-  // kernel's delta form (host/implicit_plan.cpp), which keeps them exactly
+  // kernel's delta form (host/core/step/implicit_plan.cpp), which keeps them exactly
   bool prescribed = false;
   // its first driven hold is the reference of the implicit solve
   // (DrivenHold::reference): a driven root, or a stiff rod's only hold
@@ -259,7 +259,7 @@ struct Scratch {
   // relative to the root's rigid motion); entry i belongs to RodBatch::driven[i]
   std::vector<T> driven_root_velocity;
   // Slots whose rotation exceeded the branch-free kernels' range in the
-  // current stage (host/launch.h launch_with_fallback).
+  // current stage (host/core/step/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
 };
 

@@ -13,7 +13,7 @@
 // relative rotation of the step's two poses, whose angle is only known
 // modulo 2π (a step that coarse cannot follow the motion anyway).
 //
-// How the step uses it (host/root_motion.h apply_root_motion): at the start of each
+// How the step uses it (host/core/step/root_motion.h apply_root_motion): at the start of each
 // Position Verlet step, t → t + h, node 0 is put at x(t) and given the mean velocity
 // (x(t + h) − x(t))/h, and the clamp frame is put at Q(t) with the constant
 // angular velocity that turns it into Q(t + h) over the step. The drifts then
@@ -131,7 +131,7 @@ class HostMotion : public RootMotion {
   Pose p0_, p1_;
 };
 
-// A motion over one step [t, t + h] (host/root_motion.h apply_root_motion): the
+// A motion over one step [t, t + h] (host/core/step/root_motion.h apply_root_motion): the
 // poses at both ends and the constant lab angular velocity Ω that turns one
 // into the other, exp(h [Ω]×) = R(t + h) R(t)ᵀ.
 struct RootStep {

@@ -3,10 +3,10 @@
 //
 //   storage    Model / State / Scratch / Loads members    include/manyrods/batch.h
 //   views      ModelView, StateView, ScratchView, …         kernels/views.h
-//   allocation, fills, byte counts, view pointers         host/batch.cpp
-//   state copies (advance's replay)                        host/integrators.h
-//   checkpoints (HDF5 /checkpoint, restart)                host/h5io.cpp, host/runner.cpp
-//   the memory estimate of a scene                        host/scene.cpp
+//   allocation, fills, byte counts, view pointers         host/core/model/batch.cpp
+//   state copies (advance's replay)                        host/core/step/integrators.h
+//   checkpoints (HDF5 /checkpoint, restart)                host/scene/io/h5io.cpp, host/scene/run/runner.cpp
+//   the memory estimate of a scene                        host/scene/setup/scene.cpp
 //
 // Adding a field is one line here (and the kernel that reads or writes it).
 //

@@ -79,7 +79,7 @@ struct Fluid {
 // (build_batch calls it for every rod).
 void validate_drag(const Drag& d);
 
-// One turbulent mode (host/fluid.cpp makes them from the seed).
+// One turbulent mode (host/core/model/fluid.cpp makes them from the seed).
 struct TurbulentMode {
   Vec3 k, amplitude;
   double omega, phase;

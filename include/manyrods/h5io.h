@@ -86,7 +86,7 @@ struct Checkpoint {
   double dissipated = 0;            // ∫ 2·D_v dt so far, J
   double last_rate = 0;             // 2·D_v at the last energy sample, W
   std::int64_t frames_written = 0;  // frames of the run up to this state
-  // the validity monitor's reference (host/validity.h): the budget at the
+  // the validity monitor's reference (host/scene/run/validity.h): the budget at the
   // run's start and the largest kinetic + elastic energy so far (NaN: none)
   double validity_energy0 = NAN, validity_scale = NAN;
   std::string scene_text, scene_source;

@@ -41,4 +41,15 @@ std::string active_step_path();
 // lacks or the CPU cannot run.
 void select_step_path(const std::string& name);
 
+// This machine's ceilings, which `manyrods bench` sets a step's throughput
+// against: the FMA peak in FLOP/s (an FMA counts 2) of `threads` threads
+// on the active step path's instruction set, the best of 5 bursts of about
+// 0.05 s; and the STREAM triad's bandwidth in bytes/s over 3 × 32 Mi
+// entries of T (far beyond the caches), the best of 5. Each takes about a
+// second.
+template <class T>
+double peak_flops(int threads);
+template <class T>
+double triad_bandwidth(int threads);
+
 }  // namespace manyrods

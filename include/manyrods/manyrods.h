@@ -14,6 +14,7 @@
 //   manyrods/profile.h    per-stage timing
 //   manyrods/stable_dt.h  the largest stable step
 //   manyrods/statics.h    static equilibrium
+//   manyrods/strain.h     the largest strain of a rod (the validity range)
 // Scenes, runs, sweeps and files (TOML, HDF5, USD) are in manyrods/scene.h,
 // the library manyrods::scene.
 #pragma once
@@ -24,6 +25,7 @@
 #include "manyrods/material.h"
 #include "manyrods/profile.h"
 #include "manyrods/stable_dt.h"
+#include "manyrods/strain.h"
 #include "manyrods/statics.h"
 #include "manyrods/step.h"
 #include "manyrods/terms.h"

@@ -1,5 +1,5 @@
 // include/manyrods/mesh.h — a mesh collider's signed-distance grid from a
-// Wavefront OBJ file (host/mesh_grid.cpp builds it; the collider that holds
+// Wavefront OBJ file (host/scene/io/mesh_grid.cpp builds it; the collider that holds
 // it and the kernel that samples it: include/manyrods/contact.h,
 // kernels/contact.h grid_distance).
 #pragma once

@@ -21,13 +21,13 @@ namespace manyrods {
 // The stages of a step, in the order docs/architecture.md "The step as
 // stages" lists them.
 enum class Stage {
-  root_motion,     // driven holds (roots, tips, nodes) put on their motion (host/root_motion.h)
+  root_motion,     // driven holds (roots, tips, nodes) put on their motion (host/core/step/root_motion.h)
   drift,           // x += h v, Q ← exp(−h ω) Q (kernels/integrate.h)
   resultants,      // strains and resultants (kernels/strains.h, resultants.h, internal_forces.h)
   kick,            // v += h m⁻¹ F, ω += h J⁻¹ C (kernels/integrate.h)
   fluid,           // drag, buoyancy and wind, around the kick (kernels/fluid.h)
   implicit_solve,  // per-rod backward-Euler solve (kernels/viscous_implicit*.h)
-  broad_phase,     // rod–rod candidate lists, when they need rebuilding (host/contact.cpp)
+  broad_phase,     // rod–rod candidate lists, when they need rebuilding (host/core/step/broad_phase.cpp)
   contact,         // contact impulses and friction (kernels/contact.h)
   renormalize,     // float frames back to orthonormal (kernels/integrate.h)
   count

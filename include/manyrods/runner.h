@@ -77,7 +77,7 @@ struct RunOptions {
   // static initial states solved before (scene.h StaticCache; not owned)
   StaticCache* static_cache = nullptr;
   // Called with each new kind of validity violation when it is first seen
-  // (host/validity.h; docs/scenes.md "The validity monitor").
+  // (host/scene/run/validity.h; docs/scenes.md "The validity monitor").
   std::function<void(const std::string&)> on_warning;
   // Called before the file is closed (the sweep adds /sweep here).
   std::function<void(h5::Writer&, const std::vector<ProbeRecord>&)> before_finish;

@@ -7,7 +7,7 @@
 // maps its coordinate u to a value by its inverse CDF.
 //
 // Designs:
-//   mc     independent uniform points (splitmix64, host/rng.h), drawn
+//   mc     independent uniform points (splitmix64, manyrods/rng.h), drawn
 //          point by point, parameter by parameter
 //   lhs    Latin hypercube (McKay, Beckman & Conover 1979): along every
 //          axis each of the N strata [k/N, (k+1)/N) holds exactly one point,

@@ -25,6 +25,7 @@
 #include "manyrods/batch.h"
 #include "manyrods/observables.h"
 #include "manyrods/stable_dt.h"
+#include "manyrods/strain.h"
 #include "manyrods/statics.h"
 #include "manyrods/step.h"
 
@@ -226,24 +227,11 @@ StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c);
 // terms (InputError for a choice with contact: statics knows none).
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt = {});
 
-// Largest strain of rod `rod`: max over its elements of |σ| (shear and
-// stretch, the library's element_strain) and over its joints of
-// |κ − U0|·width/2 (bending and twist at the section's outer fibre).
-template <class T>
-double max_strain(const RodBatch<T>& b, int rod, double width);
-
-// The same with where it is: `where` the element (stretch, shear) or the
-// interior joint j (bending, twist; between elements j and j+1), and the
-// largest |σ| alone with its element.
-struct StrainPeak {
-  double value = 0;
-  int where = 0;
-  bool bending = false;
-  double stretch = 0;
-  int stretch_element = 0;
-};
-template <class T>
-StrainPeak strain_peak(const RodBatch<T>& b, int rod, double width);
+// Largest strain of a rod: manyrods/strain.h (max_strain, strain_peak,
+// StrainPeak), named here too for scene code.
+using manyrods::max_strain;
+using manyrods::strain_peak;
+using manyrods::StrainPeak;
 
 // Node positions [nodes, 3] and element directors [elements, 3, 3] of all
 // rods, without ghosts, in rod order (the HDF5 frame layout).

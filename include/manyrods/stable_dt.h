@@ -1,6 +1,6 @@
 // include/manyrods/stable_dt.h — an estimate of the largest stable time step
 // of Position Verlet for the batch's rods (docs/model.md "Stable time step";
-// the derivation is in host/stable_dt.h).
+// the derivation is in host/core/analysis/stable_dt.h).
 #pragma once
 
 #include "manyrods/batch.h"

@@ -1,7 +1,7 @@
 // include/manyrods/statics.h — solve_static(batch): Newton equilibrium of the
 // discrete rods under their loads and gravity (an analysis tool: statics for
 // tests, initial states for scenes; not part of the time step). Double
-// precision batches only. The method is described in host/statics.h.
+// precision batches only. The method is described in host/core/analysis/statics.h.
 #pragma once
 
 #include "manyrods/batch.h"

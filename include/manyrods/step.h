@@ -17,11 +17,13 @@
 // Kelvin–Voigt term and gravity each on or off (kAllTerms, kNoKelvinVoigt,
 // kNoGravity, kNoKelvinVoigtNoGravity), with Viscous::implicit and both
 // integrators. Other combinations (e.g. shear off at compile time, or
-// Viscous::explicit_rate) are templates in manyrods/advanced.h, which code
+// Viscous::explicit_rate) are templates in host/core/advanced.h, which code
 // built against the source tree includes instead of this header.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -48,6 +50,14 @@ struct Exec {
   // comparison only. Double batches ignore it.
   bool stiff_solve_in_double = true;
 };
+
+// Runs task(i) for every i in [0, count) on OpenMP threads (a dynamic
+// schedule over the default team), each thread in the calling thread's
+// floating-point mode (subnormal flushing included), as a step's threads
+// are: independent tasks give the same numbers on any thread count. For
+// set-up work over independent rods (static pre-load solves); task must
+// not throw.
+void parallel_tasks(std::size_t count, const std::function<void(std::size_t)>& task);
 
 // How the Kelvin–Voigt force is integrated.
 //   implicit:      backward Euler in the velocities after the elastic kick
@@ -142,7 +152,7 @@ Energies energies(const RodBatch<T>& b, int rod = -1);
 template <class T>
 NonFinite find_non_finite(const RodBatch<T>& b);
 
-// ---- what the library holds (host/instantiate_float.cpp, instantiate_double.cpp)------------------------
+// ---- what the library holds (host/core/step/instantiate_float.cpp, instantiate_double.cpp)------------------------
 #define MANYRODS_STEP_DECLARATIONS(EXTERN, T, TERMS)                                                     \
   EXTERN template void step_n<TERMS, Viscous::implicit, T>(RodBatch<T>&, T, std::int64_t, const Exec&);  \
   EXTERN template void step_pefrl<TERMS, Viscous::implicit, 4, T>(RodBatch<T>&, T, const Exec&);         \
@@ -172,7 +182,7 @@ NonFinite find_non_finite(const RodBatch<T>& b);
   EXTERN template Energies energies<TERMS, T>(const RodBatch<T>&, int);
 #define MANYRODS_STEP_CONTACT_TERMS(EXTERN, T) MANYRODS_CONTACT_TERMS(MANYRODS_STEP_CONTACT_DECLARATIONS, EXTERN, T)
 
-// (host/isa_variant.cpp compiles the step for another instruction set and
+// (host/core/isa/isa_variant.cpp compiles the step for another instruction set and
 // must instantiate it itself)
 #ifndef MANYRODS_ISA_VARIANT
 MANYRODS_STEP_ALL_TERMS(extern, float)

@@ -13,10 +13,10 @@ MANYRODS_PACKAGES=(
   libeigen3-dev     # host-side linear algebra: statics, stable_dt, tests
   libgtest-dev      # GoogleTest
   libbenchmark-dev  # Google Benchmark (bench/)
-  libtomlplusplus-dev  # toml++: scene files (host/scene.cpp), with file:line of every key
-  libtinyobjloader-dev # tinyobjloader: OBJ meshes for mesh colliders (host/mesh_grid.cpp)
+  libtomlplusplus-dev  # toml++: scene files (host/scene/setup/scene.cpp), with file:line of every key
+  libtinyobjloader-dev # tinyobjloader: OBJ meshes for mesh colliders (host/scene/io/mesh_grid.cpp)
   libcli11-dev      # CLI11: options and subcommands of build/bin/manyrods
-  libhdf5-dev       # HDF5 C library: trajectories, energies and checkpoints (host/h5io.cpp)
+  libhdf5-dev       # HDF5 C library: trajectories, energies and checkpoints (host/scene/io/h5io.cpp)
   gnuplot-nox       # PNG plots: manyrods plot (pngcairo) and the speed-vs-error study (tools/run-accuracy)
   python3-h5py      # tests/test_h5io: checks that h5py reads the output layout
   python3-dev       # Python headers: the Python module (python/src/module.cpp)

@@ -1,0 +1,16 @@
+// host/core/analysis/analysis.cpp — the analysis templates the library holds: stable_dt
+// and solve_static (include/manyrods/stable_dt.h, statics.h), the only
+// parts of the library that use Eigen.
+#include "host/core/analysis/stable_dt.h"
+#include "host/core/analysis/statics.h"
+
+namespace manyrods {
+
+MANYRODS_STABLE_DT_DECLARATIONS(, float)
+MANYRODS_STABLE_DT_DECLARATIONS(, double)
+template StaticResult solve_static<kAllTerms>(RodBatch<double>&, const StaticOptions&);
+template StaticResult solve_static<kNoKelvinVoigt>(RodBatch<double>&, const StaticOptions&);
+template StaticResult solve_static<kNoGravity>(RodBatch<double>&, const StaticOptions&);
+template StaticResult solve_static<kNoKelvinVoigtNoGravity>(RodBatch<double>&, const StaticOptions&);
+
+}  // namespace manyrods

@@ -1,0 +1,322 @@
+// host/core/analysis/statics.h — static equilibrium of the discrete rods by Newton's method.
+//
+// Unknowns: the position of every free node and a rotation increment φ of
+// every element frame (Q ← exp(−[φ]×) Q, material components). Residual: the
+// generalized forces (host/core/step/diagnostics.h) at zero velocity (node forces,
+// element couples). Rods are independent, so each rod is solved on its own
+// with a Jacobian from central differences (6n × 6n, banded; n ≲ 1,000). Loads
+// (gravity, point forces and couples) are ramped in `load_steps` equal steps
+// so that large deflections are reached along the equilibrium path.
+//
+// This is an analysis tool (statics for tests, initial states for demos), not
+// part of the time step.
+#pragma once
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cstdlib>
+#include <cmath>
+#include <vector>
+
+#include "host/core/step/diagnostics.h"
+#include "manyrods/statics.h"
+
+namespace manyrods {
+
+namespace detail {
+
+struct RodDofs {
+  std::vector<int> node_slots;  // free nodes
+  std::vector<int> elem_slots;  // all elements
+  int size() const { return 3 * int(node_slots.size() + elem_slots.size()); }
+};
+
+template <Terms kT>
+Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
+                                std::array<Array<double>, 3>& c) {
+  double* fp[3] = {f[0].data(), f[1].data(), f[2].data()};
+  double* cp[3] = {c[0].data(), c[1].data(), c[2].data()};
+  generalized_forces<kT>(b, fp, cp);
+  Eigen::VectorXd r(d.size());
+  int i = 0;
+  for (int k : d.node_slots)
+    for (int a = 0; a < 3; ++a) r[i++] = f[a][k];
+  for (int k : d.elem_slots)
+    for (int a = 0; a < 3; ++a) r[i++] = c[a][k];
+  return r;
+}
+
+inline void apply_dofs(RodBatch<double>& b, const RodDofs& d, const Eigen::VectorXd& dx) {
+  int i = 0;
+  for (int k : d.node_slots)
+    for (int a = 0; a < 3; ++a) b.state.node_x[a][k] += dx[i++];
+  for (int k : d.elem_slots) {
+    const vec3<double> phi = {dx[i], dx[i + 1], dx[i + 2]};
+    i += 3;
+    mat3<double> q;
+    for (int j = 0; j < 9; ++j) q.m[j] = b.state.elem_Q[j][k];
+    q = mul(rotation_exp(-phi), q);
+    for (int j = 0; j < 9; ++j) b.state.elem_Q[j][k] = q.m[j];
+  }
+}
+
+// The cell of dof `col` (node j and element j share cell j: their slot less
+// the rod's first) and its component (0–2 a node's x, y, z; 3–5 an
+// element's rotation).
+inline int dof_cell(const RodDofs& d, int col, int first) {
+  const int nn = 3 * int(d.node_slots.size());
+  return (col < nn ? d.node_slots[col / 3] : d.elem_slots[(col - nn) / 3]) - first;
+}
+
+// Moves dof `col` by h: what apply_dofs does with h in that entry and zeros
+// elsewhere, touching that unknown only.
+inline void apply_dof(RodBatch<double>& b, const RodDofs& d, int col, double h) {
+  const int nn = 3 * int(d.node_slots.size());
+  if (col < nn) {
+    b.state.node_x[col % 3][d.node_slots[col / 3]] += h;
+    return;
+  }
+  const int k = d.elem_slots[(col - nn) / 3], a = (col - nn) % 3;
+  const vec3<double> phi = {a == 0 ? h : 0.0, a == 1 ? h : 0.0, a == 2 ? h : 0.0};
+  mat3<double> q;
+  for (int j = 0; j < 9; ++j) q.m[j] = b.state.elem_Q[j][k];
+  q = mul(rotation_exp(-phi), q);
+  for (int j = 0; j < 9; ++j) b.state.elem_Q[j][k] = q.m[j];
+}
+
+// ∂r/∂q by central differences: steps h_rel·length for positions, h_rel
+// (rad) for rotations. The residual of cell r (its node's force, its
+// element's couple) depends only on the unknowns of cells r − 2 … r + 2
+// (node forces on the strains of the two elements beside the node; element
+// couples on the curvatures of the two joints beside the element, which
+// reach one element further): columns of one component whose cells are
+// kBand apart are perturbed together, and each row takes the difference of
+// the one column within its reach — the same numbers as one column at a
+// time (tests/test_statics.cpp), with 2 × 6 × kBand residuals instead of 2
+// per unknown. The state is restored exactly after each group. Each entry
+// within reach goes to store(row, col, value) (grouped), or every entry
+// (one column at a time, for the test).
+constexpr int kReach = 2;
+template <Terms kT, class Store>
+void jacobian_entries(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
+                      std::array<Array<double>, 3>& c, double length, double h_rel, bool grouped, Store&& store) {
+  constexpr int kBand = 2 * kReach + 1;
+  const int m = d.size(), nn = 3 * int(d.node_slots.size());
+  const int first = std::min(d.node_slots.empty() ? 1 << 30 : d.node_slots[0], d.elem_slots.empty() ? 1 << 30 : d.elem_slots[0]);
+  std::vector<int> cell(static_cast<std::size_t>(m)), group;
+  int cells = 0;
+  for (int i = 0; i < m; ++i) cells = std::max(cells, (cell[std::size_t(i)] = dof_cell(d, i, first)) + 1);
+  std::vector<std::vector<int>> rows_of(static_cast<std::size_t>(cells));  // the unknowns of each cell
+  for (int i = 0; i < m; ++i) rows_of[std::size_t(cell[std::size_t(i)])].push_back(i);
+  const int groups = grouped ? 6 * kBand : m;
+  for (int gi = 0; gi < groups; ++gi) {
+    group.clear();
+    for (int col = 0; col < m; ++col) {
+      const int comp = col < nn ? col % 3 : 3 + (col - nn) % 3;
+      if (grouped ? (comp == gi / kBand && cell[std::size_t(col)] % kBand == gi % kBand) : col == gi) group.push_back(col);
+    }
+    if (group.empty()) continue;
+    auto shift = [&](double s) {
+      for (int col : group) apply_dof(b, d, col, s * (col < nn ? h_rel * length : h_rel));
+    };
+    shift(1);
+    const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c);
+    shift(-2);
+    const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c);
+    shift(1);
+    for (int col : group) {
+      const double h = col < nn ? h_rel * length : h_rel;
+      if (!grouped) {
+        for (int row = 0; row < m; ++row) store(row, col, (rp[row] - rm[row]) / (2 * h));
+        continue;
+      }
+      const int cc = cell[std::size_t(col)];
+      for (int rc = std::max(0, cc - kReach); rc <= std::min(cells - 1, cc + kReach); ++rc)
+        for (int row : rows_of[std::size_t(rc)]) store(row, col, (rp[row] - rm[row]) / (2 * h));
+    }
+  }
+}
+
+// The Jacobian as a dense matrix (grouped, or one column at a time).
+template <Terms kT>
+Eigen::MatrixXd residual_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
+                                  std::array<Array<double>, 3>& c, double length, double h_rel,
+                                  bool grouped = true) {
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(d.size(), d.size());
+  jacobian_entries<kT>(b, d, f, c, length, h_rel, grouped, [&](int row, int col, double v) { J(row, col) = v; });
+  return J;
+}
+
+// The Jacobian in band storage. Ordered by cell (node, then element), the
+// unknowns make J banded: entry (i, j) in that order is zero beyond
+// w = 6 (kReach + 1) − 1 either side of the diagonal. Stored as
+// B(i, j − i + w) for |j − i| ≤ w, with room for the fill-in of LU with
+// partial pivoting (up to 2w right of the diagonal): m × (3w + 1).
+struct BandedJacobian {
+  static constexpr int w = 6 * (kReach + 1) - 1;
+  std::vector<int> order, pos;  // banded position -> unknown, unknown -> banded position
+  Eigen::MatrixXd B;            // [m, 3w + 1], column j − i + w
+  void plan(const RodDofs& d, int first) {
+    const int m = d.size();
+    order.resize(std::size_t(m));
+    pos.resize(std::size_t(m));
+    for (int i = 0; i < m; ++i) order[std::size_t(i)] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return dof_cell(d, a, first) < dof_cell(d, b, first); });
+    for (int i = 0; i < m; ++i) pos[std::size_t(order[std::size_t(i)])] = i;
+  }
+  // J·x (x, J·x in the unknowns' order), from the band as computed
+  Eigen::VectorXd times(const Eigen::VectorXd& x) const {
+    const int m = int(B.rows());
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(m);
+    for (int i = 0; i < m; ++i) {
+      double v = 0;
+      for (int j = std::max(0, i - w); j <= std::min(m - 1, i + w); ++j) v += B(i, j - i + w) * x[order[std::size_t(j)]];
+      y[order[std::size_t(i)]] = v;
+    }
+    return y;
+  }
+  Eigen::MatrixXd dense() const {
+    const int m = int(B.rows());
+    Eigen::MatrixXd J = Eigen::MatrixXd::Zero(m, m);
+    for (int i = 0; i < m; ++i)
+      for (int j = std::max(0, i - w); j <= std::min(m - 1, i + w); ++j)
+        J(order[std::size_t(i)], order[std::size_t(j)]) = B(i, j - i + w);
+    return J;
+  }
+};
+
+template <Terms kT>
+void banded_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
+                     std::array<Array<double>, 3>& c, double length, double h_rel, BandedJacobian& J) {
+  constexpr int w = BandedJacobian::w;
+  J.B.setZero(d.size(), 3 * w + 1);
+  jacobian_entries<kT>(b, d, f, c, length, h_rel, true, [&](int row, int col, double v) {
+    J.B(J.pos[std::size_t(row)], J.pos[std::size_t(col)] - J.pos[std::size_t(row)] + w) = v;
+  });
+}
+
+// Solves J x = rhs by Gaussian elimination with partial pivoting within the
+// band (the pivot is sought in the w rows below; the rows swapped bring
+// fill-in up to 2w right of the diagonal): m·w·3w operations instead of the
+// dense LU's ⅔m³ — for the seed cantilever (m = 300) 50 times fewer — and
+// the same pivots as the dense LU (column k is zero below row k + w).
+// false when a pivot is zero (a singular J: the caller falls back to a
+// pivoted QR).
+inline bool solve_banded(const BandedJacobian& J, const Eigen::VectorXd& rhs, Eigen::VectorXd& x) {
+  constexpr int w = BandedJacobian::w;
+  const int m = int(J.B.rows());
+  Eigen::MatrixXd A = J.B;  // A(i, j − i + w)
+  auto at = [&](int i, int j) -> double& { return A(i, j - i + w); };
+  Eigen::VectorXd y(m);
+  for (int i = 0; i < m; ++i) y[i] = rhs[J.order[std::size_t(i)]];
+  for (int k = 0; k < m; ++k) {
+    const int last = std::min(m - 1, k + w), right = std::min(m - 1, k + 2 * w);
+    int p = k;
+    for (int i = k + 1; i <= last; ++i)
+      if (std::abs(at(i, k)) > std::abs(at(p, k))) p = i;
+    if (at(p, k) == 0) return false;
+    if (p != k) {
+      // row p holds entries from column p − w ≤ k on; row k's from k − w,
+      // but those left of k are eliminated already (and not read again)
+      for (int j = k; j <= right; ++j) {
+        const double t = j - p + w <= 3 * w ? at(p, j) : 0.0;
+        if (j - p + w <= 3 * w) at(p, j) = at(k, j);
+        at(k, j) = t;
+      }
+      std::swap(y[k], y[p]);
+    }
+    for (int i = k + 1; i <= last; ++i) {
+      const double l = at(i, k) / at(k, k);
+      if (l == 0) continue;
+      for (int j = k + 1; j <= right; ++j) at(i, j) -= l * at(k, j);
+      y[i] -= l * y[k];
+    }
+  }
+  for (int k = m - 1; k >= 0; --k) {
+    double v = y[k];
+    for (int j = k + 1; j <= std::min(m - 1, k + 2 * w); ++j) v -= at(k, j) * y[j];
+    y[k] = v / at(k, k);
+  }
+  x.resize(m);
+  for (int i = 0; i < m; ++i) x[J.order[std::size_t(i)]] = y[i];
+  return x.allFinite();
+}
+
+}  // namespace detail
+
+// solve_static (include/manyrods/statics.h).
+template <Terms kT>
+StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
+  constexpr Terms kStatic = [] {
+    Terms t = kT;
+    t.kelvin_voigt = false;  // no motion, no viscous force
+    return t;
+  }();
+  for (auto* a : {&b.state.node_v, &b.state.elem_w})
+    for (auto& x : *a)
+      for (std::size_t k = 0; k < x.size(); ++k) x[k] = 0;
+  // remember full loads, then ramp
+  const Loads<double> full_loads = b.loads;
+  const std::array<double, 3> full_g = b.model.gravity;
+  std::array<Array<double>, 3> f, c;
+  for (int a = 0; a < 3; ++a) {
+    f[a].resize(b.slots(), 0.0);
+    c[a].resize(b.slots(), 0.0);
+  }
+  StaticResult res;
+  for (int r = 0; r < b.rod_count(); ++r) {
+    detail::RodDofs d;
+    const int n = b.elements(r);
+    double length = 0;
+    for (int e = 0; e < n; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
+    for (int j = 0; j <= n; ++j)
+      if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
+    for (int e = 0; e < n; ++e)  // (a clamped interior node holds the frames on either side)
+      if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
+    const int m = d.size();
+    const int nn = 3 * int(d.node_slots.size());
+    detail::BandedJacobian J;
+    J.plan(d, b.rods[std::size_t(r)].offset);  // (cells count from the rod's first slot)
+    for (int ls = 1; ls <= opt.load_steps; ++ls) {
+      const double lambda = double(ls) / opt.load_steps;
+      for (int a = 0; a < 3; ++a)
+        for (int k = 0; k < b.slots(); ++k) {
+          b.loads.node_force[a][k] = lambda * full_loads.node_force[a][k];
+          b.loads.elem_couple[a][k] = lambda * full_loads.elem_couple[a][k];
+        }
+      b.model.gravity = {lambda * full_g[0], lambda * full_g[1], lambda * full_g[2]};
+      bool ok = false;
+      for (int it = 0; it < opt.max_newton_iterations; ++it) {
+        const Eigen::VectorXd r0 = detail::static_residual<kStatic>(b, d, f, c);
+        detail::banded_jacobian<kStatic>(b, d, f, c, length, 1e-6, J);
+        // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
+        // by banded LU with partial pivoting (solve_banded); where J is
+        // singular or nearly so (a rod free to move rigidly) the LU's
+        // solution does not solve the system, and the pivoted QR, which
+        // copes with the rank deficiency, takes over.
+        Eigen::VectorXd dq;
+        if (!detail::solve_banded(J, -r0, dq) || (J.times(dq) + r0).norm() > 1e-8 * (r0.norm() + J.B.norm() * dq.norm()))
+          dq = J.dense().colPivHouseholderQr().solve(-r0);
+        const double upd = std::max(dq.head(nn).cwiseAbs().maxCoeff() / length,
+                                    dq.tail(m - nn).cwiseAbs().maxCoeff());
+        // Trust region: a full Newton step far from the solution can jump to
+        // another branch of the (non-convex) equilibrium problem; cap it.
+        if (upd > opt.max_update) dq *= opt.max_update / upd;
+        detail::apply_dofs(b, d, dq);
+        ++res.iterations;
+        res.last_update = upd;
+        if (upd < opt.tolerance) {
+          ok = true;
+          break;
+        }
+      }
+      if (!ok) res.converged = false;
+    }
+  }
+  b.loads = full_loads;
+  b.model.gravity = full_g;
+  return res;
+}
+
+}  // namespace manyrods

@@ -1,0 +1,70 @@
+// host/core/step/implicit_plan.cpp — the implicit-solve plan (host/core/step/implicit_plan.h).
+#include "host/core/step/implicit_plan.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "kernels/viscous_implicit_partitioned.h"
+
+namespace manyrods {
+
+std::size_t partition_values(int cells, int lanes, int k) {
+  const std::size_t parts = std::size_t((cells + k - 1) / k);
+  const std::size_t groups = (parts + std::size_t(lanes) - 1) / std::size_t(lanes);
+  const std::size_t n = 78 * groups * std::size_t(k + 1) * std::size_t(lanes) +
+                        (std::size_t(kPartitionOut) + 78 + 6) * parts;
+  return (n + 7) / 8 * 8;
+}
+
+std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& rods, const Segment& seg,
+                                 int lanes, int buffer_cells, bool kelvin_voigt) {
+  plan.lanes = lanes;
+  plan.buffer_cells = buffer_cells;
+  const int first_rod = int(plan.rods.size()), first_group = int(plan.groups.size());
+  for (int i = seg.rod_begin; i < seg.rod_end; ++i)
+    if (needs_implicit_solve(rods[i], kelvin_voigt)) plan.rods.push_back(i);
+  const auto begin = plan.rods.begin() + first_rod;
+  // rods with prescribed velocities (RodInfo::prescribed) go last, one per
+  // group: the scalar kernel's delta form keeps them
+  const auto alone = std::stable_partition(begin, plan.rods.end(), [&](int x) { return !rods[x].prescribed; });
+  if (lanes > 1)
+    std::sort(begin, alone, [&](int x, int y) {
+      const int ex = rods[x].elements, ey = rods[y].elements;
+      return ex != ey ? ex > ey : x < y;
+    });
+  const int n = int(alone - plan.rods.begin()), total = int(plan.rods.size());
+  const int half_lanes = lanes >= 4 ? lanes / 2 : 1;
+  for (int a = first_rod; a < n;) {
+    const int cells = rods[plan.rods[a]].elements + 1;
+    const bool fits = lanes * (cells + 1) <= buffer_cells;
+    const bool fits_half = half_lanes > 1 && half_lanes * (cells + 1) <= buffer_cells;
+    const int count = fits ? std::min(lanes, n - a) : fits_half ? std::min(half_lanes, n - a) : 1;
+    SolveGroup g{a, count, !fits};
+    if (count == 1 && lanes > 1 && cells >= kPartitionMinCells) {
+      g.half = false;
+      g.parts = (cells + kPartitionCells - 1) / kPartitionCells;
+      g.offset = plan.partition_values;
+      plan.partition_values += partition_values(cells, lanes);
+    }
+    plan.groups.push_back(g);
+    a += count;
+  }
+  for (int a = n; a < total; ++a) plan.groups.push_back({a, 1, false});
+  return {first_group, int(plan.groups.size())};
+}
+
+void build_solve_plans(std::array<SolvePlan, 2>& plans, std::vector<Segment>& segments,
+                       const std::vector<RodInfo>& rods, int lanes, int buffer_cells) {
+  for (int kv = 0; kv < 2; ++kv) {
+    plans[kv] = SolvePlan{};
+    plans[kv].lanes = lanes;
+    plans[kv].buffer_cells = buffer_cells;
+    for (Segment& seg : segments) {
+      const auto [g0, g1] = plan_segment(plans[kv], rods, seg, lanes, buffer_cells, kv == 1);
+      seg.groups_begin[kv] = g0;
+      seg.groups_end[kv] = g1;
+    }
+  }
+}
+
+}  // namespace manyrods

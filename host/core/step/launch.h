@@ -1,0 +1,96 @@
+// host/core/step/launch.h — runs a per-index kernel over the slots of a batch (or a range of them).
+//
+// The slot range is cut into blocks of kGuard (64) indices; OpenMP threads take
+// whole blocks and each block is one `omp simd` loop of fixed length. Every
+// index is therefore computed by the same instruction sequence whatever the
+// thread count, and nothing is reduced across threads: results are
+// bit-identical for any number of threads (docs/architecture.md "Threads and
+// determinism").
+#pragma once
+
+#include "host/core/step/fp_env.h"
+#include "manyrods/array.h"
+#include "manyrods/step.h"  // Exec
+
+namespace manyrods {
+
+// Kernel lambdas passed to launch must be inlined into its `omp simd` loop,
+// or the loop calls them once per index and does not vectorize:
+//   launch(n, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { ... });
+#if defined(__GNUC__)
+#define MANYRODS_KERNEL_LAMBDA __attribute__((always_inline))
+#else
+#define MANYRODS_KERNEL_LAMBDA
+#endif
+
+namespace detail {
+template <class F>
+__attribute__((always_inline)) inline void launch_block(int k0, F kernel) {
+#pragma omp simd
+  for (int i = 0; i < kGuard; ++i) kernel(k0 + i);
+}
+}  // namespace detail
+
+// Runs kernel(k) for k in [begin, end) (multiples of kGuard).
+template <class F>
+inline void launch(int begin, int end, const Exec& ex, F&& kernel) {
+  const int b0 = begin / kGuard, b1 = end / kGuard;
+  if (ex.threads <= 1 || b1 - b0 < 2) {
+    for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
+    return;
+  }
+  const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
+#pragma omp parallel num_threads(ex.threads)
+  {
+    const RegionFpScope fp(mode);
+#pragma omp for schedule(static)
+    for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
+  }
+}
+
+template <class F>
+inline void launch(int slots, const Exec& ex, F&& kernel) {
+  launch(0, slots, ex, kernel);
+}
+
+// Runs `fast` (branch-free, returns true where its result is not valid) in
+// the SIMD loops, records those indices in `flags`, and reruns them with
+// `exact` — in the same block, right after, so the order of work per index
+// is the same whatever the thread count.
+namespace detail {
+
+// One block of launch_with_fallback. The kernels are taken by value: copies
+// that live in registers, which no store in the loop can alias (through a
+// captured reference the compiler must reload them, and the loop stays
+// scalar).
+template <class Fast, class Exact>
+__attribute__((always_inline)) inline void fallback_block(int k0, int* flags, Fast fast, Exact exact) {
+#pragma omp simd
+  for (int i = 0; i < kGuard; ++i) flags[k0 + i] = fast(k0 + i) ? 1 : 0;
+  int any = 0;
+  for (int i = 0; i < kGuard; ++i) any |= flags[k0 + i];
+  if (any)
+    for (int i = 0; i < kGuard; ++i)
+      if (flags[k0 + i]) exact(k0 + i);
+}
+
+}  // namespace detail
+
+template <class Fast, class Exact>
+inline void launch_with_fallback(int begin, int end, const Exec& ex, int* flags, Fast&& fast,
+                                 Exact&& exact) {
+  const int b0 = begin / kGuard, b1 = end / kGuard;
+  if (ex.threads <= 1 || b1 - b0 < 2) {
+    for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
+    return;
+  }
+  const RegionFpMode mode = RegionFpMode::of_caller();
+#pragma omp parallel num_threads(ex.threads)
+  {
+    const RegionFpScope fp(mode);
+#pragma omp for schedule(static)
+    for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
+  }
+}
+
+}  // namespace manyrods

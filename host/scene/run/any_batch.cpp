@@ -1,0 +1,238 @@
+// host/scene/run/any_batch.cpp — AnyBatch (include/manyrods/any_batch.h): a batch of
+// either precision, stepped through the scene's Terms dispatch.
+#include "manyrods/any_batch.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "io/state_bytes.h"
+#include "manyrods/h5io.h"
+#include "manyrods/runner.h"
+
+namespace manyrods::scene {
+namespace {
+
+// The largest dimension of a section (m): the USD width of a rod built in code.
+double section_width(const Section& s) {
+  switch (s.shape) {
+    case Shape::rectangle: return std::max(s.a, s.b);
+    case Shape::ellipse: return 2 * std::max(s.a, s.b);
+    default: return 2 * s.a;
+  }
+}
+
+// The batch gets host motions of its own (two batches of one scene are
+// driven apart): one copy per name among s.host_motions and the HostMotions
+// the rods and colliders use (rods built in code that name one driver share
+// it), every hold and collider pointed at its copy.
+std::vector<std::shared_ptr<HostMotion>> own_host_motions(Scene& s) {
+  std::vector<std::shared_ptr<HostMotion>> copies;
+  auto remap = [&](std::shared_ptr<const RootMotion>& m) {
+    auto h = std::dynamic_pointer_cast<const HostMotion>(m);
+    if (!h) return;
+    if (h->name().empty()) throw InputError("a host motion (driver) needs a name, got \"\"");
+    std::size_t i = 0;
+    while (i < copies.size() && copies[i]->name() != h->name()) ++i;
+    if (i == copies.size()) copies.push_back(std::make_shared<HostMotion>(*h));
+    m = copies[i];
+  };
+  for (const auto& h : s.host_motions) {
+    std::shared_ptr<const RootMotion> m = h;
+    remap(m);
+  }
+  for (RodSpec& r : s.rods) {
+    remap(r.root_motion);
+    remap(r.tip_motion);
+    for (NodeHold& h : r.holds) remap(h.motion);
+  }
+  for (Collider& c : s.contact.colliders) remap(c.motion);
+  s.host_motions = copies;
+  return copies;
+}
+
+}  // namespace
+
+AnyBatch AnyBatch::from_scene(Scene s, std::optional<Precision> precision) {
+  if (precision) s.sim.precision = *precision;
+  AnyBatch a;
+  a.from_file_ = true;
+  a.choice_ = step_choice(s);
+  a.host_motions_ = own_host_motions(s);
+  if (s.sim.precision == Precision::float32) a.batch_.emplace<0>(build_scene_batch<float>(s));
+  else a.batch_.emplace<1>(build_scene_batch<double>(s));
+  a.scene_ = std::make_shared<const Scene>(std::move(s));
+  return a;
+}
+
+AnyBatch AnyBatch::from_rods(std::vector<RodSpec> rods, Precision precision, const Vec3& gravity,
+                             Integrator integrator) {
+  if (rods.empty()) throw InputError("a batch needs at least one rod");
+  for (double g : gravity)
+    if (!std::isfinite(g)) throw InputError("gravity: must be finite");
+  Scene s;
+  s.source = "rods";
+  s.sim.precision = precision;
+  s.sim.gravity = gravity;
+  s.sim.integrator = integrator;
+  s.sim.dt_auto = true;
+  for (std::size_t r = 0; r < rods.size(); ++r) {
+    RodGroup g;
+    g.name = rods[r].name.empty() ? "rod " + std::to_string(r) : rods[r].name;
+    g.count = 1;
+    g.first_rod = int(r);
+    g.width = section_width(rods[r].section);
+    s.groups.push_back(g);
+    s.rod_group.push_back(int(r));
+  }
+  s.rods = std::move(rods);
+  AnyBatch a;
+  a.choice_ = step_choice(s);
+  a.host_motions_ = own_host_motions(s);
+  try {
+    if (precision == Precision::float32) a.batch_.emplace<0>(build_scene_batch<float>(s));
+    else a.batch_.emplace<1>(build_scene_batch<double>(s));
+  } catch (const SceneError& e) {  // build_scene_batch prefixes the source: the rods' own message
+    std::string m = e.what();
+    if (m.rfind("rods: ", 0) == 0) m = m.substr(6);
+    throw InputError(m);
+  }
+  a.scene_ = std::make_shared<const Scene>(std::move(s));
+  return a;
+}
+
+int AnyBatch::find_driver(const std::string& name) const {
+  for (std::size_t i = 0; i < host_motions_.size(); ++i)
+    if (host_motions_[i]->name() == name) return int(i);
+  std::string known;
+  for (const auto& h : host_motions_) known += (known.empty() ? "\"" : ", \"") + h->name() + "\"";
+  throw InputError("no driver named \"" + name + "\" (the batch's host motions: " +
+                   (known.empty() ? std::string("none") : known) + ")");
+}
+
+void AnyBatch::set_driver_pose(int driver, const Pose& pose, double until) {
+  if (driver < 0 || driver >= driver_count())
+    throw InputError("driver " + std::to_string(driver) + " out of range (the batch has " +
+                     std::to_string(driver_count()) + " host motions)");
+  host_motions_[std::size_t(driver)]->set_target(time(), pose, until);
+}
+
+double AnyBatch::scene_dt() const {
+  if (from_file_) return visit([&](const auto& b) { return manyrods::scene::scene_dt(*scene_, b); });
+  return 0.9 * stable_dt().elastic;
+}
+
+std::int64_t AnyBatch::step(double dt, std::int64_t count, int threads, const std::function<bool()>& keep_going,
+                            double check_s) {
+  if (!(dt > 0) || !std::isfinite(dt)) throw InputError("step: dt must be > 0 and finite (got " + std::to_string(dt) + ")");
+  if (count < 0) throw InputError("step: count must be >= 0 (got " + std::to_string(count) + ")");
+  if (threads < 1) throw InputError("step: threads must be >= 1 (got " + std::to_string(threads) + ")");
+  const Exec ex{threads, nullptr};
+  const auto advance = [&](std::int64_t n) {
+    visit([&](auto& b) {
+      using T = typename std::remove_reference_t<decltype(b)>::value_type;
+      advance_scene(b, choice_, T(dt), n, ex);
+    });
+  };
+  if (!keep_going) {
+    advance(count);
+    return count;
+  }
+  // chunks of whole check intervals, doubled while one takes under check_s
+  std::int64_t chunk = kSampleSteps, done = 0;
+  while (done < count) {
+    const std::int64_t n = std::min(chunk, count - done);
+    const auto t0 = std::chrono::steady_clock::now();
+    advance(n);
+    done += n;
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (took < check_s && chunk < (std::int64_t{1} << 40)) chunk *= 2;
+    if (done < count && !keep_going()) break;
+  }
+  return done;
+}
+
+Energies AnyBatch::energies(int rod) const {
+  if (rod >= rod_count()) throw InputError("energies: rod " + std::to_string(rod) + " out of range (the batch has " +
+                                           std::to_string(rod_count()) + ")");
+  return visit([&](const auto& b) { return scene_energies(b, choice_, rod); });
+}
+
+StableDt AnyBatch::stable_dt() const {
+  return visit([&](const auto& b) { return scene_stable_dt(b, choice_); });
+}
+
+StaticResult AnyBatch::solve_static(const StaticOptions& opt) {
+  if (float32()) throw InputError("solve_static: needs a double-precision batch (precision = \"double\")");
+  return scene_solve_static(f64(), choice_, opt);
+}
+
+std::uint64_t AnyBatch::state_hash() const {
+  return visit([](const auto& b) { return manyrods::state_hash(b); });
+}
+
+double AnyBatch::time() const {
+  return visit([](const auto& b) { return b.state.time; });
+}
+std::int64_t AnyBatch::steps() const {
+  return visit([](const auto& b) { return b.state.steps; });
+}
+int AnyBatch::slots() const {
+  return visit([](const auto& b) { return b.slots(); });
+}
+int AnyBatch::rod_count() const {
+  return visit([](const auto& b) { return b.rod_count(); });
+}
+std::int64_t AnyBatch::node_count() const {
+  return visit([](const auto& b) { return b.element_count() + b.rod_count(); });
+}
+int AnyBatch::elements(int rod) const {
+  if (rod < 0 || rod >= rod_count())
+    throw InputError("rod " + std::to_string(rod) + " out of range (the batch has " + std::to_string(rod_count()) +
+                     " rods)");
+  return visit([&](const auto& b) { return b.elements(rod); });
+}
+int AnyBatch::offset(int rod) const {
+  elements(rod);  // range check
+  return visit([&](const auto& b) { return b.rods[rod].offset; });
+}
+
+void AnyBatch::save(const std::string& path) const {
+  visit([&](const auto& b) {
+    using T = typename std::remove_cvref_t<decltype(b)>::value_type;
+    const Scene& s = *scene_;
+    std::vector<std::int32_t> group(s.rod_group.begin(), s.rod_group.end());
+    std::vector<double> width;
+    std::vector<std::string> names;
+    for (int r = 0; r < b.rod_count(); ++r) width.push_back(s.groups[s.rod_group[r]].width);
+    for (const RodGroup& g : s.groups) names.push_back(g.name);
+    const h5::Layout layout = detail::frame_layout(b, std::move(group), std::move(width), std::move(names), true,
+                                                   s.has_contact);
+    const char* integrator = s.sim.integrator == Integrator::pefrl ? "pefrl" : "position_verlet";
+    const double dt = from_file_ ? manyrods::scene::scene_dt(s, b) : 0.9 * scene_stable_dt(b, choice_).elastic;
+    h5::Writer w(path, layout, {s.text, s.source, integrator, dt});
+    std::vector<T> x, q;
+    gather_positions(b, x);
+    gather_directors(b, q);
+    const Energies e = scene_energies(b, choice_);
+    h5::EnergyRow row;
+    row.kinetic = e.kinetic;
+    row.elastic = e.elastic;
+    row.potential = e.potential;
+    row.dissipation_rate = e.dissipation;
+    row.contact_work = e.contact_work;
+    w.append_frame(b.state.time, x.data(), q.data(), row);
+    h5::Checkpoint c;
+    detail::save_state(b, c);
+    c.dt = dt;
+    c.last_rate = e.dissipation;
+    c.frames_written = 1;
+    c.scene_text = s.text;
+    c.scene_source = s.source;
+    w.write_checkpoint(c);
+    w.finish();
+  });
+}
+
+}  // namespace manyrods::scene

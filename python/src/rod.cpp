@@ -1,0 +1,251 @@
+// python/src/rod.cpp — manyrods._core: sections, materials, damping
+// (include/manyrods/material.h) and rods (include/manyrods/batch.h RodSpec).
+#include <cmath>
+#include <cstring>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bindings.h"
+
+namespace manyrods_python {
+namespace {
+
+// ---- point and frame arrays --------------------------------------------------
+
+using Points = nb::ndarray<const double, nb::ndim<2>, nb::device::cpu>;
+using Frames = nb::ndarray<const double, nb::ndim<3>, nb::device::cpu>;
+
+std::vector<Vec3> points_of(const Points& a, const char* what) {
+  if (a.shape(1) != 3)
+    throw manyrods::InputError(std::string(what) + ": shape (n, 3) expected (got (" + std::to_string(a.shape(0)) +
+                               ", " + std::to_string(a.shape(1)) + "))");
+  std::vector<Vec3> out(a.shape(0));
+  auto v = a.view();
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (int c = 0; c < 3; ++c) out[i][c] = v(i, c);
+  return out;
+}
+
+std::vector<Mat3> frames_of(const Frames& a, const char* what) {
+  if (a.shape(1) != 3 || a.shape(2) != 3)
+    throw manyrods::InputError(std::string(what) + ": shape (n, 3, 3) expected (rows d1, d2, d3)");
+  std::vector<Mat3> out(a.shape(0));
+  auto v = a.view();
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) out[i][3 * r + c] = v(i, r, c);
+  return out;
+}
+
+nb::ndarray<nb::numpy, double> points_array(const std::vector<Vec3>& p) {
+  auto* data = new double[p.size() * 3];
+  for (std::size_t i = 0; i < p.size(); ++i) std::memcpy(data + 3 * i, p[i].data(), 3 * sizeof(double));
+  nb::capsule owner(data, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+  return nb::ndarray<nb::numpy, double>(data, {p.size(), 3}, owner);
+}
+
+nb::ndarray<nb::numpy, double> frames_array(const std::vector<Mat3>& f) {
+  auto* data = new double[f.size() * 9];
+  for (std::size_t i = 0; i < f.size(); ++i) std::memcpy(data + 9 * i, f[i].data(), 9 * sizeof(double));
+  nb::capsule owner(data, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+  return nb::ndarray<nb::numpy, double>(data, {f.size(), 3, 3}, owner);
+}
+
+void set_hold(RodSpec& r, bool root, const std::string& kind) {
+  bool& clamped = root ? r.clamped_root : r.clamped_tip;
+  bool& pinned = root ? r.pinned_root : r.pinned_tip;
+  clamped = pinned = false;
+  if (kind == "clamped") clamped = true;
+  else if (kind == "pinned") pinned = true;
+  else if (kind != "free")
+    throw manyrods::InputError(std::string(root ? "root" : "tip") + ": \"free\", \"clamped\" or \"pinned\" (got \"" +
+                               kind + "\")");
+}
+
+std::string hold_of(const RodSpec& r, bool root) {
+  if (root ? r.clamped_root : r.clamped_tip) return "clamped";
+  if (root ? r.pinned_root : r.pinned_tip) return "pinned";
+  return "free";
+}
+
+}  // namespace
+
+// ---- sections, materials, damping (include/manyrods/material.h)
+void bind_materials(nb::module_& m) {
+  nb::class_<manyrods::Section>(m, "Section", "A cross section; principal axes d1, d2 (m)")
+      .def_static("circle", &manyrods::Section::circle, "radius"_a)
+      .def_static("ellipse", &manyrods::Section::ellipse, "semi_axis_1"_a, "semi_axis_2"_a)
+      .def_static("rectangle", &manyrods::Section::rectangle, "width_1"_a, "height_2"_a)
+      .def_static("hollow_circle", &manyrods::Section::hollow_circle, "outer_radius"_a, "inner_radius"_a)
+      .def_rw("a", &manyrods::Section::a)
+      .def_rw("b", &manyrods::Section::b);
+
+  nb::class_<manyrods::Material>(m, "Material", "Elastic material, SI units; give poisson_ratio or shear_modulus")
+      .def(
+          "__init__",
+          [](manyrods::Material* t, double density, double youngs_modulus, double poisson_ratio, double shear_modulus) {
+            new (t) manyrods::Material{density, youngs_modulus, poisson_ratio, shear_modulus};
+          },
+          "density"_a, "youngs_modulus"_a, "poisson_ratio"_a = NAN, "shear_modulus"_a = NAN)
+      .def_rw("density", &manyrods::Material::density)
+      .def_rw("youngs_modulus", &manyrods::Material::youngs_modulus)
+      .def_rw("poisson_ratio", &manyrods::Material::poisson_ratio)
+      .def_rw("shear_modulus", &manyrods::Material::shear_modulus);
+
+  nb::class_<manyrods::Damping>(m, "Damping", "Kelvin–Voigt parameters (retardation times in s, or viscosities)")
+      .def(nb::init<>())
+      .def_static("none", &manyrods::Damping::none)
+      .def_static("shear_bulk", &manyrods::Damping::shear_bulk, "tau_shear"_a, "tau_bulk"_a)
+      .def_static("shear_extension", &manyrods::Damping::shear_extension, "tau_shear"_a, "tau_extension"_a)
+      .def_static("viscosities", &manyrods::Damping::viscosities, "shear_viscosity"_a, "bulk_viscosity"_a);
+}
+
+// ---- rods (include/manyrods/batch.h RodSpec)
+
+namespace {
+
+// The named constructors: straight and polyline.
+void bind_rod_factories(nb::class_<RodSpec>& c) {
+  c.def_static(
+       "straight",
+       [](const std::vector<double>& start, const std::vector<double>& direction, double length, int elements,
+          std::optional<std::vector<double>> normal, const manyrods::Section& section,
+          const manyrods::Material& material, const manyrods::Damping& damping, const std::string& root,
+          const std::string& tip, bool stiff, const std::string& name) {
+         const Vec3 d = vec3(direction, "direction");
+         Vec3 n;
+         if (normal) {
+           n = vec3(*normal, "normal");
+         } else {  // the axis least aligned with the rod
+           int a = 0;
+           for (int i = 1; i < 3; ++i)
+             if (std::abs(d[i]) < std::abs(d[a])) a = i;
+           n = {0, 0, 0};
+           n[a] = 1;
+         }
+         if (!(elements >= 1)) throw manyrods::InputError("elements: must be >= 1 (got " + std::to_string(elements) + ")");
+         RodSpec r = RodSpec::straight(vec3(start, "start"), d, n, length, elements);
+         r.section = section;
+         r.material = material;
+         r.damping = damping;
+         set_hold(r, true, root);
+         set_hold(r, false, tip);
+         r.stiff_implicit = stiff;
+         r.name = name;
+         return r;
+       },
+       "start"_a, "direction"_a, "length"_a, "elements"_a, nb::kw_only(), "normal"_a = nb::none(),
+       "section"_a = manyrods::Section{}, "material"_a = manyrods::Material{}, "damping"_a = manyrods::Damping{},
+       "root"_a = "clamped", "tip"_a = "free", "stiff"_a = false, "name"_a = "",
+       "A straight rod from `start` along `direction` (d3), d1 along `normal` made orthogonal.")
+      .def_static(
+          "polyline",
+          [](const Points& nodes, std::optional<Frames> frames, std::optional<std::vector<double>> first_normal,
+             const manyrods::Section& section, const manyrods::Material& material, const manyrods::Damping& damping,
+             const std::string& root, const std::string& tip, bool stiff, const std::string& name) {
+            std::vector<Vec3> x = points_of(nodes, "nodes");
+            if (x.size() < 2) throw manyrods::InputError("nodes: a rod needs at least 2 nodes (got " + std::to_string(x.size()) + ")");
+            std::vector<Mat3> q;
+            if (frames) {
+              q = frames_of(*frames, "frames");
+            } else {
+              Vec3 t{x[1][0] - x[0][0], x[1][1] - x[0][1], x[1][2] - x[0][2]};
+              Vec3 n{0, 0, 0};
+              if (first_normal) {
+                n = vec3(*first_normal, "first_normal");
+              } else {
+                int a = 0;
+                for (int i = 1; i < 3; ++i)
+                  if (std::abs(t[i]) < std::abs(t[a])) a = i;
+                n[a] = 1;
+              }
+              q = RodSpec::parallel_transport_frames(x, n);
+            }
+            RodSpec r = RodSpec::polyline(std::move(x), std::move(q));
+            r.section = section;
+            r.material = material;
+            r.damping = damping;
+            set_hold(r, true, root);
+            set_hold(r, false, tip);
+            r.stiff_implicit = stiff;
+            r.name = name;
+            return r;
+          },
+          "nodes"_a, "frames"_a = nb::none(), nb::kw_only(), "first_normal"_a = nb::none(),
+          "section"_a = manyrods::Section{}, "material"_a = manyrods::Material{}, "damping"_a = manyrods::Damping{},
+          "root"_a = "clamped", "tip"_a = "free", "stiff"_a = false, "name"_a = "",
+          "A rod along the polyline `nodes` (n+1, 3): its shape is the rest shape. `frames` (n, 3, 3), rows d1, d2, "
+          "d3; default: parallel transport (twist-free) from `first_normal`.");
+}
+
+// Host motions, holds, parameters and the (copied) arrays.
+void bind_rod_fields(nb::class_<RodSpec>& c) {
+  c.def_prop_rw(
+       "root_driver",
+       [](const RodSpec& r) -> std::optional<std::string> {
+         if (auto h = std::dynamic_pointer_cast<const manyrods::HostMotion>(r.root_motion)) return h->name();
+         return std::nullopt;
+       },
+       [](RodSpec& r, std::optional<std::string> name) {
+         r.root_motion = name ? std::make_shared<manyrods::HostMotion>(*name) : nullptr;
+       },
+       "the host motion the held root follows, by name (Batch.set_driver_pose); None: static")
+      .def_prop_rw(
+          "tip_driver",
+          [](const RodSpec& r) -> std::optional<std::string> {
+            if (auto h = std::dynamic_pointer_cast<const manyrods::HostMotion>(r.tip_motion)) return h->name();
+            return std::nullopt;
+          },
+          [](RodSpec& r, std::optional<std::string> name) {
+            r.tip_motion = name ? std::make_shared<manyrods::HostMotion>(*name) : nullptr;
+          },
+          "the host motion the held tip follows, by name; None: static")
+      .def_rw("name", &RodSpec::name)
+      .def_rw("section", &RodSpec::section)
+      .def_rw("material", &RodSpec::material)
+      .def_rw("damping", &RodSpec::damping)
+      .def_rw("stiff", &RodSpec::stiff_implicit)
+      .def_rw("shear_stretch_scale", &RodSpec::shear_stretch_scale)
+      .def_prop_rw(
+          "root", [](const RodSpec& r) { return hold_of(r, true); },
+          [](RodSpec& r, const std::string& k) { set_hold(r, true, k); }, "\"free\", \"clamped\" or \"pinned\"")
+      .def_prop_rw(
+          "tip", [](const RodSpec& r) { return hold_of(r, false); },
+          [](RodSpec& r, const std::string& k) { set_hold(r, false, k); }, "\"free\", \"clamped\" or \"pinned\"")
+      .def(
+          "hold",
+          [](RodSpec& r, int node, const std::string& kind) {
+            manyrods::NodeHold h;
+            h.node = node;
+            if (kind == "clamped") h.kind = manyrods::HoldKind::clamped;
+            else if (kind == "pinned") h.kind = manyrods::HoldKind::pinned;
+            else throw manyrods::InputError("hold: kind \"clamped\" or \"pinned\" (got \"" + kind + "\")");
+            r.holds.push_back(h);
+          },
+          "node"_a, "kind"_a = "clamped", "Hold interior node `node` (1 … n−1) in place (pinned) or also in orientation (clamped).")
+      .def_prop_ro("elements", &RodSpec::elements)
+      .def_prop_rw(
+          "nodes", [](const RodSpec& r) { return nb::cast(points_array(r.nodes), nb::rv_policy::move); },
+          [](RodSpec& r, const Points& a) { r.nodes = points_of(a, "nodes"); }, "(n+1, 3) centreline, m (a copy)")
+      .def_prop_rw(
+          "frames", [](const RodSpec& r) { return nb::cast(frames_array(r.frames), nb::rv_policy::move); },
+          [](RodSpec& r, const Frames& a) { r.frames = frames_of(a, "frames"); }, "(n, 3, 3) element frames (a copy)")
+      .def_prop_rw(
+          "velocities", [](const RodSpec& r) { return nb::cast(points_array(r.velocities), nb::rv_policy::move); },
+          [](RodSpec& r, const Points& a) { r.velocities = points_of(a, "velocities"); }, "(n+1, 3) initial, m/s")
+      .def_prop_rw(
+          "rest_curvature", [](const RodSpec& r) { return nb::cast(points_array(r.rest_curvature), nb::rv_policy::move); },
+          [](RodSpec& r, const Points& a) { r.rest_curvature = points_of(a, "rest_curvature"); },
+          "(n−1, 3) U0, 1/m (empty: the given shape is the rest shape)");
+}
+
+}  // namespace
+
+void bind_rod(nb::module_& m) {
+  nb::class_<RodSpec> c(m, "Rod", "One rod as the user describes it (double precision, SI units)");
+  bind_rod_factories(c);
+  bind_rod_fields(c);
+}
+
+}  // namespace manyrods_python
