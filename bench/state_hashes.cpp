@@ -7,6 +7,7 @@
 // function can be compiled against an older tree.
 #include <cstdio>
 #include <cstring>
+#include "contact_scenes.h"
 #include "scenes.h"
 using namespace manyrods;
 using namespace manyrods::bench;
@@ -46,6 +47,26 @@ void one(const char* scene, bool kv, const char* tag, int threads) {
               (unsigned long long)h20, (unsigned long long)fnv(b));
   std::fflush(stdout);
 }
+// The contact benchmarks' batches (bench/bench_contact.cpp) after their
+// warm-up into contact, then 20 steps and 64 more; the contact stage's
+// variants: colliders only (temporally blocked) and rod–rod contact.
+template <Terms kT>
+void contact(const char* scene, const char* variant, int warm, int threads) {
+  const Exec ex{threads};
+  const std::string sc = scene;
+  const int side = sc == "bundle16" ? 4 : 32;
+  RodBatch<double> b = build_batch<double>(
+      sc == "groom" ? groom() : sc == "headstiff" ? hair_grid() : twisted_bundle(side), {0, 0, -9.81});
+  const double dt = 0.5 * stable_dt<kAllTerms>(b).elastic;
+  set_contact(b, contact_for(sc, variant));
+  step_n<kT>(b, dt, warm, ex);
+  for (int i = 0; i < 20; ++i) step<kT>(b, dt, ex);
+  const std::uint64_t h20 = fnv(b);
+  step_n<kT>(b, dt, 64, ex);
+  std::printf("%-10s %-6s %-12s t%d  %016llx %016llx\n", scene, "double", variant, threads, (unsigned long long)h20,
+              (unsigned long long)fnv(b));
+  std::fflush(stdout);
+}
 int main() {
   for (const char* s : {"hair", "cable", "long", "mixed", "fibers"}) {
     one<float, kAllTerms, Viscous::implicit>(s, true, "kv", 2);
@@ -59,4 +80,8 @@ int main() {
     one<double, kAllTerms, Viscous::implicit>(s, true, "kv", 2);
     one<double, kAllTerms, Viscous::implicit>(s, true, "kv", 1);
   }
+  contact<kColliders>("headstiff", "head", 300, 2);
+  contact<kRodContact>("bundle16", "rod", 100, 1);
+  contact<kRodContact>("bundle16", "rod", 100, 2);
+  contact<kAllContact>("groom", "head_rod", 1800, 2);
 }

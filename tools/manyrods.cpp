@@ -212,8 +212,7 @@ void sweep_script(std::ostream& gp, const h5::Output& o, const std::string& dir,
   gp << "set key inside top right\n";
   for (std::size_t c = 0; c < o.sweep_summary.size(); ++c) {
     const std::string& y = o.sweep_summary[c].name;
-    if (y.size() > 4 && y.compare(y.size() - 4, 4, "_err") == 0) continue;  // error bars of the next plot
-    if (y.size() > 6 && y.compare(y.size() - 6, 6, "_err_s") == 0) continue;
+    if (is_sweep_error_column(y)) continue;  // the error bars of its column's plot
     // a column without a finite value (a period the runs were too short
     // for, a crossing never reached) has nothing to plot
     if (std::none_of(o.sweep_summary[c].values.begin(), o.sweep_summary[c].values.end(),
@@ -222,7 +221,8 @@ void sweep_script(std::ostream& gp, const h5::Output& o, const std::string& dir,
       continue;
     }
     const int col = int(c) + 3;
-    const int err = column(y == "period_s" ? "period_err_s" : y + "_err");
+    const std::string& error = sweep_error_column(y);
+    const int err = error.empty() ? 0 : column(error);
     const std::string png = dir + "/sweep_" + y + ".png";
     gp << "set output " << quote(png) << "\nset title " << quote(y + " against " + short_key(x) + " — " + what)
        << "\nset xlabel " << quote(x) << "\nset ylabel " << quote(y) << "\nplot " << quote(sweep) << " using 2:"

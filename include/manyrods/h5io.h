@@ -62,8 +62,20 @@ struct RunInfo {
   double dt = 0;
 };
 
+// A frame's energies, one /energy dataset each: X(name, unit, meaning).
+// EnergyRow, the writer's and the reader's dataset names, and Python's
+// read_output come from this list.
+#define MANYRODS_FRAME_ENERGIES(X)                                         \
+  X(kinetic, "J", "translational + rotational")                            \
+  X(elastic, "J", "stretch, shear, bend, twist")                           \
+  X(potential, "J", "gravity and dead point forces")                       \
+  X(dissipated, "J", "∫ 2·D_v dt since the run's start (trapezoidal rule)") \
+  X(dissipation_rate, "W", "2·D_v at the frame")
+
 struct EnergyRow {
-  double kinetic = 0, elastic = 0, potential = 0, dissipated = 0, dissipation_rate = 0;
+#define MANYRODS_FRAME_ENERGY_MEMBER(name, unit, doc) double name = 0;
+  MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_MEMBER)
+#undef MANYRODS_FRAME_ENERGY_MEMBER
   // with contact (Layout::contact): the contact impulses' work so far (J),
   // contacts in touch and the deepest overlap (m) in the frame
   double contact_work = 0, contacts = 0, max_penetration = 0;

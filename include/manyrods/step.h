@@ -83,16 +83,24 @@ inline constexpr Terms kAllContactNoKelvinVoigt{true, true, true, true, false, t
 
 // Energies of rod `rod` (or of the whole batch when rod < 0), summed in
 // double in index order (deterministic).
+// The energies of a batch or a rod, one entry each: X(name, unit, meaning).
+// Energies, the Python dict of Batch.energies and the C API's mr_energies
+// (checked member by member when the C API compiles) come from this list.
+// contact_work: the work done on the rods by contact and friction impulses
+// since set_contact (≤ 0 where they only dissipate; with moving colliders
+// also a source): kinetic + elastic + potential − contact_work + ∫2·D_v dt
+// is constant (docs/contact.md "Energy"); zero without contact Terms.
+#define MANYRODS_ENERGY_FIELDS(X)                                   \
+  X(kinetic, "J", "translational + rotational")                     \
+  X(elastic, "J", "stretch, shear, bend, twist")                    \
+  X(potential, "J", "gravity and dead point forces")                \
+  X(dissipation, "W", "2·D_v: the rate of viscous energy loss")     \
+  X(contact_work, "J", "work of the contact and friction impulses")
+
 struct Energies {
-  double kinetic = 0;       // translational + rotational
-  double elastic = 0;       // stretch, shear, bend, twist
-  double potential = 0;     // gravity and dead point forces
-  double dissipation = 0;   // 2·D_v: rate of viscous energy loss, W
-  // Work done on the rods by contact and friction impulses since set_contact
-  // (≤ 0 where they only dissipate; with moving colliders also a source), J:
-  // kinetic + elastic + potential − contact_work + ∫2·D_v dt is constant
-  // (docs/contact.md "Energy"). Zero without contact Terms.
-  double contact_work = 0;
+#define MANYRODS_ENERGY_MEMBER(name, unit, doc) double name = 0;
+  MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_MEMBER)
+#undef MANYRODS_ENERGY_MEMBER
   double total() const { return kinetic + elastic + potential; }
 };
 

@@ -94,11 +94,33 @@ struct Oscillation {
 };
 Oscillation analyse_oscillation(const std::vector<double>& t, const std::vector<double>& u, double small = 0);
 
+// The built-in summary columns of a sweep, in order, one entry each:
+// X(name, its standard-error column ("" for none), what it holds). The
+// names, the columns' filling (by name), their HDF5 datasets and the error
+// bars of `manyrods plot` all come from this list.
+#define MANYRODS_SWEEP_SUMMARY(X)                                                                          \
+  X(tip_deflection_initial_m, "", "m: the probe tip's distance from its rest position at the start")      \
+  X(tip_deflection_max_m, "", "m: the largest such distance over the run")                               \
+  X(tip_deflection_final_m, "", "m: the distance at the end")                                            \
+  X(period_s, "period_err_s", "s: the period of the tip's oscillation about its end (analyse_oscillation)") \
+  X(period_err_s, "", "s: the period's standard error")                                                  \
+  X(damping_ratio, "damping_ratio_err", "1: the damping ratio of that oscillation")                      \
+  X(damping_ratio_err, "", "1: its standard error")                                                      \
+  X(cycles, "", "1: the cycles in the fitted window")                                                    \
+  X(energy_final_J, "", "J: the mechanical energy at the end")                                           \
+  X(dissipated_J, "", "J: the energy dissipated, ∫ 2·D_v dt")                                             \
+  X(max_strain, "", "1: the largest strain over the sample points (manyrods/strain.h)")                  \
+  X(failed_at_s, "", "s: when the state stopped being finite (the variation frozen since); NaN: never")
+
 // Per-variation summary columns from the probe records of a run of the
-// sweep: the built-in ones (sweep_summary_names: tip deflections, period,
-// damping ratio, energies, max strain, failed_at_s), then the scene's
-// [[observables]] (include/manyrods/observables.h observable_columns).
+// sweep: the built-in ones (MANYRODS_SWEEP_SUMMARY, sweep_summary_names),
+// then the scene's [[observables]] (include/manyrods/observables.h
+// observable_columns).
 const std::vector<std::string>& sweep_summary_names();
+// The standard-error column of built-in column `name` ("" for none), and
+// whether `name` is such a column (MANYRODS_SWEEP_SUMMARY).
+const std::string& sweep_error_column(const std::string& name);
+bool is_sweep_error_column(const std::string& name);
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec);
 std::vector<h5::Column> sweep_parameters(const Sweep& sw);
 

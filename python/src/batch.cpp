@@ -175,11 +175,9 @@ void set_frames(PyBatch& pb, const Values& v, std::optional<int> rod) {
 
 nb::dict energies_dict(const manyrods::Energies& e) {
   nb::dict d;
-  d["kinetic"] = e.kinetic;
-  d["elastic"] = e.elastic;
-  d["potential"] = e.potential;
-  d["dissipation"] = e.dissipation;
-  d["contact_work"] = e.contact_work;
+#define MANYRODS_ENERGY_ITEM(name, unit, doc) d[#name] = e.name;
+  MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_ITEM)
+#undef MANYRODS_ENERGY_ITEM
   d["total"] = e.total();
   return d;
 }

@@ -175,11 +175,23 @@ void bind_io(nb::module_& m) {
         d["rod_width"] = o.rod_width;
         d["group_names"] = o.group_names;
         d["node_position"] = nb::ndarray<nb::numpy, double>(x->data(), {frames, nodes, 3}, owner);
+        // the frames' energies, a list [frames] each, named as in /energy
+        nb::dict energy;
+#define MANYRODS_FRAME_ENERGY_ITEM(name, unit, doc)                                  \
+  {                                                                                \
+    std::vector<double> v;                                                         \
+    for (const manyrods::h5::EnergyRow& e : o.energy) v.push_back(e.name);         \
+    energy[#name] = v;                                                             \
+  }
+        MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_ITEM)
+#undef MANYRODS_FRAME_ENERGY_ITEM
+        d["energy"] = energy;
         return d;
       },
       "path"_a,
       "A manyrods output file's frames: time [frames], node_position [frames, nodes, 3] (m), node_offsets "
-      "[rods + 1], rod_group, rod_width, group_names");
+      "[rods + 1], rod_group, rod_width, group_names, energy (a dict of [frames] lists: kinetic, elastic, "
+      "potential, dissipated (J), dissipation_rate (W))");
   m.def("parse_scene",
         [](const std::string& text, const std::string& source) { return manyrods::scene::parse_scene(text, source); },
         "text"_a, "source"_a = "<string>", "Parse and validate a scene from TOML text");

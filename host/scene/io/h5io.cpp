@@ -4,6 +4,7 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <iterator>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -254,7 +255,10 @@ std::vector<Column> read_column_group(hid_t f, const std::string& gp, const std:
   return out;
 }
 
-const char* kEnergyNames[5] = {"kinetic", "elastic", "potential", "dissipated", "dissipation_rate"};
+#define MANYRODS_FRAME_ENERGY_NAME(name, unit, doc) #name,
+constexpr const char* kEnergyNames[] = {MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_NAME)};
+#undef MANYRODS_FRAME_ENERGY_NAME
+constexpr int kEnergies = int(std::size(kEnergyNames));
 
 }  // namespace
 
@@ -264,7 +268,7 @@ struct Writer::Impl {
   std::string path, tmp;
   Layout layout;
   Id file, time, pos, dir, energy_group, contact_group;
-  Id energy[5], contact_work, contact_count, contact_depth;
+  Id energy[kEnergies], contact_work, contact_count, contact_depth;
   std::int64_t frames = 0, nodes = 0, elements = 0;
   bool closed = false;
 
@@ -335,7 +339,7 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
                            {1, ec, 3, 3}, true, w.tmp);
   w.energy_group = checked(H5Gcreate2(f, "energy", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
                            "cannot create /energy");
-  for (int i = 0; i < 5; ++i)
+  for (int i = 0; i < kEnergies; ++i)
     w.energy[i] =
         create_dataset(w.energy_group.get(), kEnergyNames[i], H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
   attr_string(w.energy_group.get(), "units", "J (dissipation_rate: W)", w.tmp);
@@ -365,8 +369,10 @@ void Writer::append_frame(double t, const void* positions, const void* directors
   if (w.layout.directors)
     append_row(w.dir.get(), w.real_type(), w.frames, {hsize_t(w.elements), 3, 3}, directors, w.tmp,
                "element_directors");
-  const double v[5] = {e.kinetic, e.elastic, e.potential, e.dissipated, e.dissipation_rate};
-  for (int i = 0; i < 5; ++i)
+#define MANYRODS_FRAME_ENERGY_VALUE(name, unit, doc) e.name,
+  const double v[kEnergies] = {MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_VALUE)};
+#undef MANYRODS_FRAME_ENERGY_VALUE
+  for (int i = 0; i < kEnergies; ++i)
     append_row(w.energy[i].get(), H5T_NATIVE_DOUBLE, w.frames, {}, &v[i], w.tmp, kEnergyNames[i]);
   if (w.layout.contact) {
     append_row(w.contact_work.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &e.contact_work, w.tmp, "contact_work");
@@ -792,16 +798,22 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
     o.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
     o.scene_source = read_attr_string(sg.get(), "source", path, "/scene.");
   }
-  std::vector<std::vector<double>> e(5);
-  for (int i = 0; i < 5; ++i) {
+  std::vector<std::vector<double>> e(kEnergies);
+  for (int i = 0; i < kEnergies; ++i) {
     e[i] =
         read_vector<double>(f, (std::string("energy/") + kEnergyNames[i]).c_str(), H5T_NATIVE_DOUBLE, path);
     if (std::int64_t(e[i].size()) != r.frames)
       fail(path, std::string("/energy/") + kEnergyNames[i] + " has " + std::to_string(e[i].size()) +
                      " entries, /time " + std::to_string(r.frames));
   }
-  for (std::int64_t k = 0; k < r.frames; ++k)
-    o.energy.push_back({e[0][k], e[1][k], e[2][k], e[3][k], e[4][k]});
+  for (std::int64_t k = 0; k < r.frames; ++k) {
+    EnergyRow row;
+    int i = 0;
+#define MANYRODS_FRAME_ENERGY_READ(name, unit, doc) row.name = e[std::size_t(i++)][std::size_t(k)];
+    MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_READ)
+#undef MANYRODS_FRAME_ENERGY_READ
+    o.energy.push_back(row);
+  }
   if (H5Lexists(f, "contact", H5P_DEFAULT) > 0) {
     const std::vector<double> w = read_vector<double>(f, "energy/contact_work", H5T_NATIVE_DOUBLE, path);
     const std::vector<double> n = read_vector<double>(f, "contact/count", H5T_NATIVE_DOUBLE, path);

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -426,11 +427,42 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
 }
 
 const std::vector<std::string>& sweep_summary_names() {
-  static const std::vector<std::string> names = {
-      "tip_deflection_initial_m", "tip_deflection_max_m", "tip_deflection_final_m", "period_s", "period_err_s",
-      "damping_ratio", "damping_ratio_err", "cycles", "energy_final_J", "dissipated_J", "max_strain", "failed_at_s"};
+#define MANYRODS_SUMMARY_NAME(name, error, doc) #name,
+  static const std::vector<std::string> names = {MANYRODS_SWEEP_SUMMARY(MANYRODS_SUMMARY_NAME)};
+#undef MANYRODS_SUMMARY_NAME
   return names;
 }
+
+const std::string& sweep_error_column(const std::string& name) {
+#define MANYRODS_SUMMARY_ERROR(column, error, doc) {#column, error},
+  static const std::map<std::string, std::string> errors = {MANYRODS_SWEEP_SUMMARY(MANYRODS_SUMMARY_ERROR)};
+#undef MANYRODS_SUMMARY_ERROR
+  static const std::string none;
+  const auto it = errors.find(name);
+  return it == errors.end() ? none : it->second;
+}
+
+bool is_sweep_error_column(const std::string& name) {
+#define MANYRODS_SUMMARY_IS_ERROR(column, error, doc) (name == error) ||
+  return !name.empty() && (MANYRODS_SWEEP_SUMMARY(MANYRODS_SUMMARY_IS_ERROR) false);
+#undef MANYRODS_SUMMARY_IS_ERROR
+}
+
+namespace {
+// One variation's built-in summary values, a member per column.
+struct SummaryRow {
+#define MANYRODS_SUMMARY_MEMBER(name, error, doc) double name = kNaN;
+  MANYRODS_SWEEP_SUMMARY(MANYRODS_SUMMARY_MEMBER)
+#undef MANYRODS_SUMMARY_MEMBER
+};
+// Appends a row to the built-in columns (the first of c, in list order).
+void append_row(std::vector<h5::Column>& c, const SummaryRow& row) {
+  std::size_t k = 0;
+#define MANYRODS_SUMMARY_APPEND(name, error, doc) c[k++].values.push_back(row.name);
+  MANYRODS_SWEEP_SUMMARY(MANYRODS_SUMMARY_APPEND)
+#undef MANYRODS_SUMMARY_APPEND
+}
+}  // namespace
 
 std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRecord>& rec) {
   std::vector<h5::Column> c;
@@ -466,18 +498,20 @@ std::vector<h5::Column> sweep_summary(const Sweep& sw, const std::vector<ProbeRe
       for (std::size_t k = 1; k < nodes.size(); ++k) length += dist(nodes[k], nodes[k - 1]);
       o = analyse_oscillation(r.time, u, 0.1 * length);
     }
-    c[0].values.push_back(dist(r.tip.front(), rest));
-    c[1].values.push_back(dmax);
-    c[2].values.push_back(dist(r.tip.back(), rest));
-    c[3].values.push_back(o.period);
-    c[4].values.push_back(o.period_err);
-    c[5].values.push_back(o.damping_ratio);
-    c[6].values.push_back(o.damping_ratio_err);
-    c[7].values.push_back(o.cycles);
-    c[8].values.push_back(r.final_energy.total());
-    c[9].values.push_back(r.dissipated);
-    c[10].values.push_back(r.max_strain);
-    c[11].values.push_back(r.failed_at);
+    SummaryRow row;
+    row.tip_deflection_initial_m = dist(r.tip.front(), rest);
+    row.tip_deflection_max_m = dmax;
+    row.tip_deflection_final_m = dist(r.tip.back(), rest);
+    row.period_s = o.period;
+    row.period_err_s = o.period_err;
+    row.damping_ratio = o.damping_ratio;
+    row.damping_ratio_err = o.damping_ratio_err;
+    row.cycles = o.cycles;
+    row.energy_final_J = r.final_energy.total();
+    row.dissipated_J = r.dissipated;
+    row.max_strain = r.max_strain;
+    row.failed_at_s = r.failed_at;
+    append_row(c, row);
     const std::vector<double> observed = observed_values(r.observed);
     for (std::size_t k = builtin; k < c.size(); ++k) c[k].values.push_back(observed[k - builtin]);
     if (std::isfinite(r.failed_at))  // frozen since: no observable of it means anything

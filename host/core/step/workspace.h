@@ -1,0 +1,71 @@
+// host/core/step/workspace.h — the step's own data in a batch: the plans
+// of the implicit solve (host/core/step/implicit_plan.h), its buffers, the
+// driven roots' velocities it keeps, and the fallback flags of the
+// branch-free kernels (host/core/step/launch.h). RodBatch holds it behind
+// an opaque handle (include/manyrods/batch.h RodBatch::workspace), so none
+// of it is public API; copied with the batch. Built with the batch
+// (host/core/model/batch.cpp), the buffers grown on first use
+// (RodBatch::reserve_implicit_scratch).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include "manyrods/array.h"
+#include "manyrods/batch.h"
+
+namespace manyrods {
+
+// The rods of one call of the implicit per-rod solve: `count` rods of
+// SolvePlan::rods from `first`, longest first, solved one per SIMD lane
+// (count ≥ 2; `half`: at half the lane width, because a full group of its
+// longest rod does not fit a thread's buffer), by the scalar kernel
+// (count = 1), or — one long rod (count = 1, parts > 0) — cut into `parts`
+// partitions solved one per lane (kernels/viscous_implicit_partitioned.h),
+// with its values at `offset` in StepWorkspace::visc_partition.
+// docs/architecture.md "The implicit-solve plan".
+struct SolveGroup {
+  int first = 0, count = 0;
+  bool half = false;
+  int parts = 0;
+  std::size_t offset = 0;
+};
+
+// Which rods the implicit solve visits, grouped once when the batch is built.
+struct SolvePlan {
+  int lanes = 0;            // rods per lane group it was built for
+  int buffer_cells = 0;     // cells per thread of the buffer it was built for
+  std::vector<int> rods;    // per segment, longest first (then by index)
+  std::vector<SolveGroup> groups;
+  std::size_t partition_values = 0;  // StepWorkspace::visc_partition it needs
+};
+
+template <class T>
+struct StepWorkspace {
+  // The rods of the implicit solve in lane groups, [0] without and [1] with
+  // the Kelvin–Voigt term (stiff rods always; damped rods with it), built
+  // with the batch; each segment owns a range of groups
+  // (Segment::groups_begin, groups_end).
+  std::array<SolvePlan, 2> solve_plan;
+  // Block elimination of the implicit viscous update (kernels/viscous_implicit.h):
+  // one buffer of `visc_cells` cells per thread (a segment's worth, not the
+  // batch's), allocated on first use only.
+  std::array<Array<T>, 36> visc_G;
+  std::array<Array<T>, 6> visc_g;
+  int visc_cells = 0, visc_threads = 0;
+  // The same buffer in double, for a float batch's stiff rods (solved in
+  // double: kernels/viscous_implicit_lanes.h); empty otherwise.
+  std::array<Array<double>, 42> visc_wide;
+  // the partitioned solves of long rods (SolveGroup::parts), one block per rod
+  std::vector<T> visc_partition;
+  // [6 × driven roots] the root velocity and clamp angular velocity of each
+  // driven root, kept across the implicit solve (which runs on velocities
+  // relative to the root's rigid motion); entry i belongs to RodBatch::driven[i]
+  std::vector<T> driven_root_velocity;
+  // Slots whose rotation exceeded the branch-free kernels' range in the
+  // current stage (host/core/step/launch.h launch_with_fallback).
+  Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
+};
+
+}  // namespace manyrods
