@@ -154,10 +154,10 @@ void long_rod_through_plan() {
   for (int i = 0; i < 3; ++i) specs.push_back(random_rod(rng, 20, true, 0.02, false, 0.3));
   RodBatch<T> b = build_batch<T>(specs, {0, 0, -9.81});
   int partitioned_groups = 0;
-  for (const SolveGroup& g : b.solve_plan[1].groups)
+  for (const SolveGroup& g : b.workspace->solve_plan[1].groups)
     if (g.parts > 0) {
       ++partitioned_groups;
-      EXPECT_EQ(b.solve_plan[1].rods[g.first], 0);
+      EXPECT_EQ(b.workspace->solve_plan[1].rods[g.first], 0);
       EXPECT_EQ(g.parts, (elements + 1 + kPartitionCells - 1) / kPartitionCells);
     }
   EXPECT_EQ(partitioned_groups, 1);

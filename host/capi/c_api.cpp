@@ -81,13 +81,13 @@ mr_status guard(F&& f) noexcept {
   if (!(cond)) return fail(MR_ERROR_ARGUMENT, std::string(__func__) + ": " + (msg))
 
 void set_end(RodSpec& r, bool root, mr_end e, std::size_t i) {
-  bool& clamped = root ? r.clamped_root : r.clamped_tip;
-  bool& pinned = root ? r.pinned_root : r.pinned_tip;
   if (e != MR_END_FREE && e != MR_END_CLAMPED && e != MR_END_PINNED)
     throw InputError("rod " + std::to_string(i) + ": " + (root ? "root" : "tip") + " is not an mr_end (got " +
                      std::to_string(int(e)) + ")");
-  clamped = e == MR_END_CLAMPED;
-  pinned = e == MR_END_PINNED;
+  manyrods::set_end_hold(r, root ? manyrods::RodEnd::root : manyrods::RodEnd::tip,
+                         e == MR_END_CLAMPED  ? std::optional(manyrods::HoldKind::clamped)
+                         : e == MR_END_PINNED ? std::optional(manyrods::HoldKind::pinned)
+                                              : std::nullopt);
 }
 
 manyrods::Section section_of(const mr_rod_desc& d, std::size_t i) {

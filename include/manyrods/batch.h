@@ -112,6 +112,24 @@ struct RodSpec {
   int elements() const { return static_cast<int>(frames.size()); }
 };
 
+// A rod's end hold as one value, a HoldKind as for interior holds (nullopt:
+// free): what the pairs (clamped_root, pinned_root) and (clamped_tip,
+// pinned_tip) say. Scene files, Python and the C API translate their hold
+// names through these two.
+enum class RodEnd { root, tip };
+inline std::optional<HoldKind> end_hold(const RodSpec& r, RodEnd end) {
+  const bool root = end == RodEnd::root;
+  if (root ? r.clamped_root : r.clamped_tip) return HoldKind::clamped;
+  if (root ? r.pinned_root : r.pinned_tip) return HoldKind::pinned;
+  return std::nullopt;
+}
+inline void set_end_hold(RodSpec& r, RodEnd end, std::optional<HoldKind> kind) {
+  bool& clamped = end == RodEnd::root ? r.clamped_root : r.clamped_tip;
+  bool& pinned = end == RodEnd::root ? r.pinned_root : r.pinned_tip;
+  clamped = kind == HoldKind::clamped;
+  pinned = kind == HoldKind::pinned;
+}
+
 // A run of slots holding whole rods [rod_begin, rod_end), 64-aligned. A
 // "fused" segment is small enough (≤ kSegmentSlots) to stay in L2 while the
 // step runs all its stages on it; a rod longer than that gets a segment of
@@ -126,7 +144,7 @@ struct Segment {
   bool stiff = false;  // its rods are stiff (RodSpec::stiff_implicit): a segment holds only one kind
   int driven_begin = 0, driven_end = 0;  // its entries of RodBatch::driven
   // its groups of the implicit-solve plans, [0] without and [1] with the
-  // Kelvin–Voigt term (RodBatch::solve_plan)
+  // Kelvin–Voigt term (StepWorkspace::solve_plan, host/core/step/workspace.h)
   int groups_begin[2] = {0, 0}, groups_end[2] = {0, 0};
 };
 
@@ -147,30 +165,6 @@ struct DrivenHold {
   Vec3 x0{};
   Mat3 q0[2]{};
   bool reference = false;
-};
-
-// The rods of one call of the implicit per-rod solve: `count` rods of
-// SolvePlan::rods from `first`, longest first, solved one per SIMD lane
-// (count ≥ 2; `half`: at half the lane width, because a full group of its
-// longest rod does not fit a thread's buffer), by the scalar kernel
-// (count = 1), or — one long rod (count = 1, parts > 0) — cut into `parts`
-// partitions solved one per lane (kernels/viscous_implicit_partitioned.h),
-// with its values at `offset` in Scratch::visc_partition.
-// docs/architecture.md "The implicit-solve plan".
-struct SolveGroup {
-  int first = 0, count = 0;
-  bool half = false;
-  int parts = 0;
-  std::size_t offset = 0;
-};
-
-// Which rods the implicit solve visits, grouped once when the batch is built.
-struct SolvePlan {
-  int lanes = 0;            // rods per lane group it was built for
-  int buffer_cells = 0;     // cells per thread of the buffer it was built for
-  std::vector<int> rods;    // per segment, longest first (then by index)
-  std::vector<SolveGroup> groups;
-  std::size_t partition_values = 0;  // Scratch::visc_partition it needs
 };
 
 struct RodInfo {
@@ -238,29 +232,10 @@ struct State {
   std::int64_t steps = 0;
 };
 
-// Derived each step (MANYRODS_SCRATCH_FIELDS says which kernel writes what),
-// plus the workspaces of the implicit solve and of the fallback kernels.
+// Derived each step (MANYRODS_SCRATCH_FIELDS says which kernel writes what).
 template <class T>
 struct Scratch {
   MANYRODS_SCRATCH_FIELDS(MANYRODS_STORAGE_MEMBER)
-  // Block elimination of the implicit viscous update (kernels/viscous_implicit.h):
-  // one buffer of `visc_cells` cells per thread (a segment's worth, not the
-  // batch's), allocated on first use only.
-  std::array<Array<T>, 36> visc_G;
-  std::array<Array<T>, 6> visc_g;
-  int visc_cells = 0, visc_threads = 0;
-  // The same buffer in double, for a float batch's stiff rods (solved in
-  // double: kernels/viscous_implicit_lanes.h); empty otherwise.
-  std::array<Array<double>, 42> visc_wide;
-  // the partitioned solves of long rods (SolveGroup::parts), one block per rod
-  std::vector<T> visc_partition;
-  // [6 × driven roots] the root velocity and clamp angular velocity of each
-  // driven root, kept across the implicit solve (which runs on velocities
-  // relative to the root's rigid motion); entry i belongs to RodBatch::driven[i]
-  std::vector<T> driven_root_velocity;
-  // Slots whose rotation exceeded the branch-free kernels' range in the
-  // current stage (host/core/step/launch.h launch_with_fallback).
-  Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
 };
 
 // Dead external loads in the lab frame, set by the user between steps
@@ -282,6 +257,25 @@ template <class T> struct ConstScratchView;
 template <class T> struct LoadsView;
 template <class T> struct ImplicitScratchView;
 
+// An owning, copyable handle of the step's workspace (defined in
+// host/core/step/workspace.h; a copy copies it).
+template <class T> struct StepWorkspace;
+template <class T>
+class WorkspaceHandle {
+ public:
+  WorkspaceHandle();
+  ~WorkspaceHandle();
+  WorkspaceHandle(const WorkspaceHandle& o);
+  WorkspaceHandle(WorkspaceHandle&& o) noexcept;
+  WorkspaceHandle& operator=(const WorkspaceHandle& o);
+  WorkspaceHandle& operator=(WorkspaceHandle&& o) noexcept;
+  StepWorkspace<T>& operator*() const { return *p_; }
+  StepWorkspace<T>* operator->() const { return p_.get(); }
+
+ private:
+  std::unique_ptr<StepWorkspace<T>> p_;
+};
+
 // The fluid of the batch's rods (include/manyrods/fluid.h); validates it and
 // the rods' drag coefficients (InputError naming the field or rod).
 template <class T> class RodBatch;
@@ -302,10 +296,10 @@ class RodBatch {
   // nodes in order, tip); the distinct motions.
   std::vector<DrivenHold> driven;
   std::vector<std::shared_ptr<const RootMotion>> motions;
-  // The rods of the implicit solve in lane groups, [0] without and [1] with
-  // the Kelvin–Voigt term (stiff rods always; damped rods with it), built
-  // with the batch; each segment owns a range of groups.
-  std::array<SolvePlan, 2> solve_plan;
+  // The step's own data: the implicit solve's plans and buffers, the
+  // fallback kernels' flags (host/core/step/workspace.h). Not API: opaque
+  // here, copied with the batch.
+  WorkspaceHandle<T> workspace;
   // What the rods touch (set_contact, include/manyrods/contact.h); off by default.
   ContactData<T> contact;
   // The fluid the rods are in (set_fluid, include/manyrods/fluid.h); off by default.
@@ -351,6 +345,9 @@ class RodBatch {
   // reserve_implicit_scratch).
   ImplicitScratchView<double> wide_implicit_scratch_view(int thread);
   bool any_stiff() const { return any_stiff_; }
+  // Elements of the rods whose implicit solve with the Kelvin–Voigt term is
+  // cut into partitions (a long rod alone in its lane group).
+  std::int64_t partitioned_elements() const;
   // The step's fluid stage runs (set_fluid with some rod that has drag or buoyancy).
   bool any_fluid() const { return fluid.on; }
 

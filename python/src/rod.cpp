@@ -53,20 +53,18 @@ nb::ndarray<nb::numpy, double> frames_array(const std::vector<Mat3>& f) {
 }
 
 void set_hold(RodSpec& r, bool root, const std::string& kind) {
-  bool& clamped = root ? r.clamped_root : r.clamped_tip;
-  bool& pinned = root ? r.pinned_root : r.pinned_tip;
-  clamped = pinned = false;
-  if (kind == "clamped") clamped = true;
-  else if (kind == "pinned") pinned = true;
-  else if (kind != "free")
+  const manyrods::RodEnd end = root ? manyrods::RodEnd::root : manyrods::RodEnd::tip;
+  if (kind == "clamped") manyrods::set_end_hold(r, end, manyrods::HoldKind::clamped);
+  else if (kind == "pinned") manyrods::set_end_hold(r, end, manyrods::HoldKind::pinned);
+  else if (kind == "free") manyrods::set_end_hold(r, end, std::nullopt);
+  else
     throw manyrods::InputError(std::string(root ? "root" : "tip") + ": \"free\", \"clamped\" or \"pinned\" (got \"" +
                                kind + "\")");
 }
 
 std::string hold_of(const RodSpec& r, bool root) {
-  if (root ? r.clamped_root : r.clamped_tip) return "clamped";
-  if (root ? r.pinned_root : r.pinned_tip) return "pinned";
-  return "free";
+  const std::optional<manyrods::HoldKind> h = manyrods::end_hold(r, root ? manyrods::RodEnd::root : manyrods::RodEnd::tip);
+  return !h ? "free" : *h == manyrods::HoldKind::clamped ? "clamped" : "pinned";
 }
 
 }  // namespace

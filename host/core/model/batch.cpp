@@ -234,7 +234,7 @@ void RodBatch<T>::allocate(int slots, std::int64_t elements) {
 #undef MANYRODS_ALLOCATE_SCRATCH
 #undef MANYRODS_ALLOCATE_LOADS
 #undef MANYRODS_ALLOCATE
-  scratch.flags.resize(S, 0);
+  workspace->flags.resize(S, 0);
 }
 
 template <class T>
@@ -318,7 +318,7 @@ std::size_t RodBatch<T>::bytes() const {
 #undef MANYRODS_BYTES_SCRATCH
 #undef MANYRODS_BYTES_LOADS
 #undef MANYRODS_BYTES
-  b += field_bytes(scratch.visc_G) + field_bytes(scratch.visc_g) + field_bytes(scratch.visc_wide);
+  b += field_bytes(workspace->visc_G) + field_bytes(workspace->visc_g) + field_bytes(workspace->visc_wide);
   return b;
 }
 
@@ -375,34 +375,65 @@ void RodBatch<T>::reserve_implicit_scratch(int threads, int min_cells) {
   int cells = min_cells;
   for (const Segment& r : segments) cells = std::max(cells, r.end - r.begin);
   threads = std::max(threads, 1);
-  const std::size_t partition = std::max(solve_plan[0].partition_values, solve_plan[1].partition_values);
-  if (scratch.visc_partition.size() < partition) scratch.visc_partition.resize(partition, T(0));
-  if (cells <= scratch.visc_cells && threads <= scratch.visc_threads) return;
-  scratch.visc_cells = std::max(cells, scratch.visc_cells);
-  scratch.visc_threads = std::max(threads, scratch.visc_threads);
-  const std::size_t n = std::size_t(scratch.visc_cells) * std::size_t(scratch.visc_threads);
-  for (auto& a : scratch.visc_G) a.resize(n, T(0));
-  for (auto& a : scratch.visc_g) a.resize(n, T(0));
+  StepWorkspace<T>& w = *workspace;
+  const std::size_t partition = std::max(w.solve_plan[0].partition_values, w.solve_plan[1].partition_values);
+  if (w.visc_partition.size() < partition) w.visc_partition.resize(partition, T(0));
+  if (cells <= w.visc_cells && threads <= w.visc_threads) return;
+  w.visc_cells = std::max(cells, w.visc_cells);
+  w.visc_threads = std::max(threads, w.visc_threads);
+  const std::size_t n = std::size_t(w.visc_cells) * std::size_t(w.visc_threads);
+  for (auto& a : w.visc_G) a.resize(n, T(0));
+  for (auto& a : w.visc_g) a.resize(n, T(0));
   if (sizeof(T) < sizeof(double) && any_stiff_)
-    for (auto& a : scratch.visc_wide) a.resize(n, 0.0);
+    for (auto& a : w.visc_wide) a.resize(n, 0.0);
 }
 
 template <class T>
 ImplicitScratchView<T> RodBatch<T>::implicit_scratch_view(int thread, int cell_offset) {
-  const std::size_t at = std::size_t(thread) * std::size_t(scratch.visc_cells) + std::size_t(cell_offset);
+  StepWorkspace<T>& w = *workspace;
+  const std::size_t at = std::size_t(thread) * std::size_t(w.visc_cells) + std::size_t(cell_offset);
   ImplicitScratchView<T> v{};
-  for (int i = 0; i < 36; ++i) v.G[i] = scratch.visc_G[i].data() + at;
-  for (int i = 0; i < 6; ++i) v.g[i] = scratch.visc_g[i].data() + at;
+  for (int i = 0; i < 36; ++i) v.G[i] = w.visc_G[i].data() + at;
+  for (int i = 0; i < 6; ++i) v.g[i] = w.visc_g[i].data() + at;
   return v;
 }
 
 template <class T>
 ImplicitScratchView<double> RodBatch<T>::wide_implicit_scratch_view(int thread) {
-  const std::size_t at = std::size_t(thread) * std::size_t(scratch.visc_cells);
+  StepWorkspace<T>& w = *workspace;
+  const std::size_t at = std::size_t(thread) * std::size_t(w.visc_cells);
   ImplicitScratchView<double> v{};
-  for (int i = 0; i < 36; ++i) v.G[i] = scratch.visc_wide[i].data() + at;
-  for (int i = 0; i < 6; ++i) v.g[i] = scratch.visc_wide[36 + i].data() + at;
+  for (int i = 0; i < 36; ++i) v.G[i] = w.visc_wide[i].data() + at;
+  for (int i = 0; i < 6; ++i) v.g[i] = w.visc_wide[36 + i].data() + at;
   return v;
+}
+
+template <class T>
+std::int64_t RodBatch<T>::partitioned_elements() const {
+  const SolvePlan& plan = workspace->solve_plan[1];
+  std::int64_t n = 0;
+  for (const SolveGroup& g : plan.groups)
+    if (g.parts > 0) n += rods[std::size_t(plan.rods[std::size_t(g.first)])].elements;
+  return n;
+}
+
+template <class T>
+WorkspaceHandle<T>::WorkspaceHandle() : p_(std::make_unique<StepWorkspace<T>>()) {}
+template <class T>
+WorkspaceHandle<T>::~WorkspaceHandle() = default;
+template <class T>
+WorkspaceHandle<T>::WorkspaceHandle(const WorkspaceHandle& o) : p_(std::make_unique<StepWorkspace<T>>(*o.p_)) {}
+template <class T>
+WorkspaceHandle<T>::WorkspaceHandle(WorkspaceHandle&& o) noexcept : p_(std::move(o.p_)) {}
+template <class T>
+WorkspaceHandle<T>& WorkspaceHandle<T>::operator=(const WorkspaceHandle& o) {
+  if (this != &o) *p_ = *o.p_;
+  return *this;
+}
+template <class T>
+WorkspaceHandle<T>& WorkspaceHandle<T>::operator=(WorkspaceHandle&& o) noexcept {
+  p_ = std::move(o.p_);
+  return *this;
 }
 
 namespace {
@@ -534,7 +565,7 @@ void collect_driven(RodBatch<T>& b, const std::vector<RodSpec>& specs) {
     seg.driven_begin = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_begin, by_rod) - b.driven.begin());
     seg.driven_end = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_end, by_rod) - b.driven.begin());
   }
-  b.scratch.driven_root_velocity.assign(6 * b.driven.size(), T(0));
+  b.workspace->driven_root_velocity.assign(6 * b.driven.size(), T(0));
 }
 
 // One rod's given geometry: element lengths and frames.
@@ -673,7 +704,7 @@ RodBatch<T> build_batch(const std::vector<RodSpec>& specs, const Vec3& gravity) 
   // (a segment's worth of cells per thread)
   int buffer_cells = 0;
   for (const Segment& seg : b.segments) buffer_cells = std::max(buffer_cells, seg.end - seg.begin);
-  build_solve_plans(b.solve_plan, b.segments, b.rods, kImplicitLanes<T>, buffer_cells);
+  build_solve_plans(b.workspace->solve_plan, b.segments, b.rods, kImplicitLanes<T>, buffer_cells);
   for (std::size_t r = 0; r < specs.size(); ++r) {
     const RodGeometry g(specs[r]);
     fill_nodes(b, specs[r], b.rods[r], g);
@@ -710,6 +741,8 @@ std::uint64_t state_hash(const RodBatch<T>& b) {
   return h;
 }
 
+template class WorkspaceHandle<float>;
+template class WorkspaceHandle<double>;
 template class RodBatch<float>;
 template class RodBatch<double>;
 template RodBatch<float> build_batch<float>(const std::vector<RodSpec>&, const Vec3&);

@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "host/core/step/workspace.h"
 #include "manyrods/batch.h"
 
 namespace manyrods {

@@ -46,7 +46,7 @@ void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, 
     const DrivenHold& d = b.driven[i];
     const RodInfo& rod = b.rods[d.rod];
     if (!d.reference || !needs_implicit_solve(rod, kelvin_voigt)) continue;
-    T* saved = b.scratch.driven_root_velocity.data() + 6 * std::size_t(i);
+    T* saved = b.workspace->driven_root_velocity.data() + 6 * std::size_t(i);
     const int k = d.node, g = d.frame[0];
     vec3<T> root[2];
     if (sign < T(0)) {
@@ -170,13 +170,13 @@ template <Terms kT, int kLanes, class T>
 void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
   constexpr int W = kLanes > 0 ? kLanes : kImplicitLanes<T>;
   constexpr int kv = kT.kelvin_voigt ? 1 : 0;
-  const SolvePlan* plan = &b.solve_plan[kv];
+  const SolvePlan* plan = &b.workspace->solve_plan[kv];
   int g0 = r.groups_begin[kv], g1 = r.groups_end[kv];
   const std::less<const Segment*> before;  // (defined for any two pointers)
   const bool own = !before(&r, b.segments.data()) && before(&r, b.segments.data() + b.segments.size());
   SolvePlan other;
-  if (!own || plan->lanes != W || plan->buffer_cells != b.scratch.visc_cells) {
-    std::tie(g0, g1) = plan_segment(other, b.rods, r, W, b.scratch.visc_cells, kT.kelvin_voigt);
+  if (!own || plan->lanes != W || plan->buffer_cells != b.workspace->visc_cells) {
+    std::tie(g0, g1) = plan_segment(other, b.rods, r, W, b.workspace->visc_cells, kT.kelvin_voigt);
     plan = &other;
   }
   if (g0 == g1) return;
@@ -257,7 +257,7 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
         own_partition.assign(partition_values(b.rods[plan->rods[grp.first]].elements + 1, W), T(0));
         buf = own_partition.data();
       } else {
-        buf = b.scratch.visc_partition.data() + grp.offset;
+        buf = b.workspace->visc_partition.data() + grp.offset;
       }
       solve_partitioned<kT, W>(b, h, ex, b.rods[plan->rods[grp.first]], buf);
     }

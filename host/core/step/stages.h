@@ -9,6 +9,7 @@
 
 #include "host/core/step/launch.h"
 #include "host/core/step/schedule.h"
+#include "host/core/step/workspace.h"
 #include "kernels/energy.h"
 #include "kernels/views.h"
 #include "manyrods/batch.h"
@@ -25,7 +26,7 @@ void compute_resultants(RodBatch<T>& b, const Exec& ex, const Segment& r) {
   const ConstStateView<T> s = std::as_const(b).state_view();
   const ScratchView<T> sc = b.scratch_view();
   launch_with_fallback(
-      r.begin, r.end, ex, b.scratch.flags.data(),
+      r.begin, r.end, ex, b.workspace->flags.data(),
       [&](int k) MANYRODS_KERNEL_LAMBDA {
         element_stage<kT>(k, m, s, sc);
         return voronoi_stage_small<kT>(k, m, s, sc);
@@ -40,7 +41,7 @@ template <class T>
 void drift(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
   const StateView<T> s = b.state_view();
   launch_with_fallback(
-      r.begin, r.end, ex, b.scratch.flags.data(),
+      r.begin, r.end, ex, b.workspace->flags.data(),
       [&](int k) MANYRODS_KERNEL_LAMBDA {
         kinematic_node(k, h, s);
         return kinematic_element_small(k, h, s);

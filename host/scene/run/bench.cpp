@@ -110,11 +110,7 @@ BenchResult bench_scene(const Scene& s, const BenchOptions& opt) {
   r.flops_per_element_step = 657;
   if (batch.choice().kelvin_voigt) {
     double partitioned = 0;  // elements of the rods solved in partitions
-    batch.visit([&](const auto& b) {
-      const SolvePlan& plan = b.solve_plan[1];
-      for (const SolveGroup& g : plan.groups)
-        if (g.parts > 0) partitioned += b.rods[plan.rods[g.first]].elements;
-    });
+    batch.visit([&](const auto& b) { partitioned = double(b.partitioned_elements()); });
     const double share = partitioned / double(std::max<std::int64_t>(1, r.elements));
     r.flops_per_element_step += 1245 * (1 - share) + 2355 * share;
   }

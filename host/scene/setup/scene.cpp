@@ -242,10 +242,14 @@ Simulation parse_simulation(const Table& root) {
 // rigid motion, include/manyrods/drive.h; angles in degrees); interior nodes
 // in [[rods.constraints]] tables { node = k, kind, motion, … }.
 struct Root {
-  bool clamped = true;
-  bool pinned = false;
+  std::optional<HoldKind> hold = HoldKind::clamped;  // nullopt: free
   std::shared_ptr<const RootMotion> motion;
 };
+// A hold's name in a scene file ("free": nullopt).
+std::optional<HoldKind> hold_named(const std::string& kind) {
+  if (kind == "free") return std::nullopt;
+  return kind == "pinned" ? HoldKind::pinned : HoldKind::clamped;
+}
 
 // `base` plus the keys a hold's table has besides its motion's.
 std::vector<const char*> with_keys(std::initializer_list<const char*> base, const std::vector<const char*>& extra) {
@@ -399,9 +403,7 @@ Root parse_hold_table(const Table& g, const char* key, const std::vector<const c
     std::vector<const char*> all = with_motion_keys({"kind"});
     all.insert(all.end(), extra.begin(), extra.end());
     const Table k(g.ctx, t, g.key(key), all);
-    const std::string kind = k.string("kind", {"clamped", "pinned"});
-    r.clamped = kind == "clamped";
-    r.pinned = kind == "pinned";
+    r.hold = hold_named(k.string("kind", {"clamped", "pinned"}));
   }
   bool motion_keys = t.contains("motion");
   for (auto&& [k, v] : t) {
@@ -425,13 +427,11 @@ Root parse_hold_table(const Table& g, const char* key, const std::vector<const c
 
 Root parse_end(const Table& g, const char* key, bool dflt_clamped) {
   Root r;
-  r.clamped = dflt_clamped;
+  r.hold = dflt_clamped ? std::optional(HoldKind::clamped) : std::nullopt;
   if (!g.has(key)) return r;
   const toml::node* n = g.get(key);
   if (n->is_string()) {
-    const std::string v = g.string(key, {"clamped", "pinned", "free"});
-    r.clamped = v == "clamped";
-    r.pinned = v == "pinned";
+    r.hold = hold_named(g.string(key, {"clamped", "pinned", "free"}));
     return r;
   }
   if (!n->is_table())
@@ -1051,8 +1051,8 @@ struct Pending {
   double length;
   int elements;
   Vec3 u0;
-  bool curved, clamped, stiff = false;
-  bool clamped_tip = false, pinned_root = false, pinned_tip = false;
+  bool curved, stiff = false;
+  std::optional<HoldKind> root_hold, tip_hold;  // nullopt: free
   std::shared_ptr<const RootMotion> tip_motion;
   std::vector<NodeHold> holds;  // [[rods.constraints]]
   Drag drag;
@@ -1098,12 +1098,10 @@ void check_size(const std::string& source, std::int64_t slots, std::int64_t elem
 // interior constraints and the tip loads of a group.
 void parse_group_ends(const Table& g, Pending& p) {
   const Root root = parse_end(g, "root", true);
-  p.clamped = root.clamped;
-  p.pinned_root = root.pinned;
+  p.root_hold = root.hold;
   p.motion = root.motion;
   const Root tip = parse_end(g, "tip", false);
-  p.clamped_tip = tip.clamped;
-  p.pinned_tip = tip.pinned;
+  p.tip_hold = tip.hold;
   p.tip_motion = tip.motion;
   if (const toml::node* cn = g.get("constraints")) {
     const toml::array* a = cn->as_array();
@@ -1130,19 +1128,20 @@ void parse_group_ends(const Table& g, Pending& p) {
       if (!c.has("kind")) c.missing("kind", "\"clamped\" or \"pinned\"");
       // the hold itself: kind and motion, read from the wrapper under its index
       const Root r = parse_hold_table(w, idx.c_str(), {"node"});
-      h.kind = r.pinned ? HoldKind::pinned : HoldKind::clamped;
+      h.kind = *r.hold;
       h.motion = r.motion;
       p.holds.push_back(h);
     }
   }
   p.g.tip_force = g.vec3("tip_force", {0, 0, 0});
-  if ((p.clamped_tip || p.pinned_tip) && to_e(p.g.tip_force).norm() > 0)
-    g.fail("tip_force", std::string("acts on the tip node, which tip = \"") + (p.clamped_tip ? "clamped" : "pinned") +
+  if (p.tip_hold && to_e(p.g.tip_force).norm() > 0)
+    g.fail("tip_force", std::string("acts on the tip node, which tip = \"") +
+                            (*p.tip_hold == HoldKind::clamped ? "clamped" : "pinned") +
                             "\" holds fixed");
   if (g.has("initial_tip_force")) {
-    if (!p.clamped)
+    if (p.root_hold != HoldKind::clamped)
       g.fail("initial_tip_force", "needs root = \"clamped\" (a free rod has no static equilibrium under a tip force)");
-    if (p.clamped_tip || p.pinned_tip) g.fail("initial_tip_force", "needs tip = \"free\" (a held tip carries no tip load)");
+    if (p.tip_hold) g.fail("initial_tip_force", "needs tip = \"free\" (a held tip carries no tip load)");
     if (!p.holds.empty()) g.fail("initial_tip_force", "needs a rod without [[rods.constraints]]");
     p.g.has_initial_tip_force = true;
     p.g.initial_tip_force = g.vec3("initial_tip_force");
@@ -1279,10 +1278,8 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
     r.material = p.material;
     r.damping = p.g.terms.kelvin_voigt ? p.damping : Damping::none();
     r.shear_stretch_scale = p.scale;
-    r.clamped_root = p.clamped;
-    r.pinned_root = p.pinned_root;
-    r.clamped_tip = p.clamped_tip;
-    r.pinned_tip = p.pinned_tip;
+    set_end_hold(r, RodEnd::root, p.root_hold);
+    set_end_hold(r, RodEnd::tip, p.tip_hold);
     r.root_motion = p.motion;
     r.tip_motion = p.tip_motion;
     r.holds = p.holds;
