@@ -28,6 +28,7 @@
 
 #include <hdf5.h>
 
+#include "host/scene/run/parts.h"
 #include "manyrods/h5io.h"
 #include "manyrods/runner.h"
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cases.h"
+#include "host/scene/setup/static_cache.h"
 #include "manyrods/mesh.h"
 #include "manyrods/scene.h"
 #include "host/core/advanced.h"

@@ -560,25 +560,10 @@ int command_run(const Options& o) {
   } else {
     Scene s = load_scene(o.scene_path);
     s.sim.force_dt = o.force_dt;
-    const std::vector<std::string> parts = o.resume ? list_parts(o.output, true) : std::vector<std::string>{};
-    if (o.resume && parts.empty())
-      std::fprintf(stderr, "manyrods: note: --resume: no checkpoint of %s yet (%s holds no complete part): "
-                   "running from the start\n", o.output.c_str(), parts_dir(o.output).c_str());
-    if (!parts.empty()) {
-      const h5::Checkpoint c = h5::read_checkpoint(parts.back());
-      if (c.scene_text != s.text)
-        throw SceneError(o.scene_path + ": --resume: the parts in " + parts_dir(o.output) +
-                         " were made from a different scene text (the scene file changed?)");
-      std::fprintf(stderr, "manyrods: resuming from %s (t = %.6g s, step %lld)\n", parts.back().c_str(), c.time,
-                   (long long)c.steps);
-      RunOptions ro = opt;
-      ro.resume = true;
-      r = run_scene(s, ro, &c);
-    } else {
-      RunOptions ro = opt;
-      ro.resume = false;
-      r = run_scene(s, ro);
-    }
+    RunOptions ro = opt;
+    ro.resume = o.resume;  // (run_scene finds the parts' last checkpoint)
+    ro.on_note = [](const std::string& line) { std::fprintf(stderr, "manyrods: %s\n", line.c_str()); };
+    r = run_scene(s, ro);
     if (!s.sim.dt_auto && r.dt != s.sim.dt)
       std::fprintf(stderr,
                    "manyrods: note: dt = %.6g s was shortened to %.6g s, so that output_interval = %.6g s is a whole "

@@ -58,8 +58,10 @@ struct RunOptions {
   std::string output;  // HDF5 path (written as <output>.tmp, renamed at the end)
   // > 0: checkpoints in parts (below) every this many wall seconds
   double checkpoint_every = 0;
-  // continue the parts of an interrupted run of this output (their last
-  // checkpoint is the run's `restart`; its first frame is not written again)
+  // continue the parts of an interrupted run of this output from their last
+  // checkpoint ("Checkpoints in parts" below; its first frame is not written
+  // again): run_scene reads it; without a complete part yet it runs from
+  // the start (and says so through on_note)
   bool resume = false;
   int threads = 1;
   double until = -1;      // stop at the first sample point at or after this time (< 0: never)
@@ -74,8 +76,8 @@ struct RunOptions {
   Frames frames = Frames::all;
   const volatile std::sig_atomic_t* interrupt = nullptr;  // nonzero: stop at the next sample point
   std::vector<Probe> probes;
-  // static initial states solved before (scene.h StaticCache; not owned)
-  StaticCache* static_cache = nullptr;
+  // Called with a line of information on where a resumed run starts.
+  std::function<void(const std::string&)> on_note;
   // Called with each new kind of validity violation when it is first seen
   // (host/scene/run/validity.h; docs/scenes.md "The validity monitor").
   std::function<void(const std::string&)> on_warning;
@@ -116,16 +118,7 @@ struct RunResult {
 // run with `resume` continues from the last one's checkpoint and loses at
 // most one interval; as the steps are those of an uninterrupted run (see the
 // top of this file) the merged output equals an uninterrupted run's.
-std::string parts_dir(const std::string& output);
-std::string part_path(const std::string& output, int k);  // k = 1, 2, …
-// The complete parts, in order (SceneError if one is missing); with
-// remove_unfinished, the .tmp of a part that was being written is removed.
-std::vector<std::string> list_parts(const std::string& output, bool remove_unfinished = false);
-// Writes the parts' frames, in order, and `last` (the last part's
-// checkpoint) and the last part's /observables into `output`, then removes the
-// parts; returns the frames.
-std::int64_t merge_parts(const std::vector<std::string>& parts, const std::string& output, const h5::Layout& layout,
-                         const h5::RunInfo& info, const h5::Checkpoint& last);
+// (host/scene/run/parts.h handles the parts.)
 
 // A validity violation with [simulation] validity.on_violation = "error".
 struct ValidityError : std::runtime_error {
@@ -133,7 +126,9 @@ struct ValidityError : std::runtime_error {
 };
 
 // Runs the scene (from its initial state, or from `restart`, whose scene
-// must be `s`; with probes, a sweep's checkpoint, whose records continue)
+// must be `s`; with probes, a sweep's checkpoint, whose records continue;
+// with RunOptions::resume and no restart, the last checkpoint of the
+// output's parts, SceneError when they were made from another scene text)
 // and writes the output. Throws SceneError, h5::H5Error,
 // NonFiniteError, ValidityError (the output file is then not written; an
 // existing one is kept).

@@ -169,36 +169,12 @@ struct StepChoice {
 
 StepChoice step_choice(const Scene& s);
 
-// Static initial states already solved, to be reused by later batches (a
-// chunked sweep's dt pass solves every variation's; its chunks' runs take
-// them from here): each distinct rod and load (its full description, as
-// two 64-bit hashes) with its node positions and frames, up to max_bytes
-// of them (beyond that, states are solved again). Thread-safe.
-class StaticCache {
- public:
-  explicit StaticCache(std::size_t max_bytes = std::size_t(1) << 30);
-  ~StaticCache();
-  StaticCache(const StaticCache&) = delete;
-  StaticCache& operator=(const StaticCache&) = delete;
-  struct State {
-    std::vector<double> x, q;  // node positions [3][n + 1], frames [9][n + 1]
-  };
-  bool find(const std::string& key, State& out) const;
-  void put(const std::string& key, const State& s);
-  std::size_t hits() const;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
-
 // Builds the batch (SceneError naming the group on invalid rods). With
 // `initial_state`, groups with initial_tip_force start in static equilibrium
 // under it (solved in double precision, one rod at a time, in parallel,
-// identical rods solved once; with a cache, taken from it where it has
-// them and put there) and are released at t = 0.
+// identical rods solved once) and are released at t = 0.
 template <class T>
-RodBatch<T> build_scene_batch(const Scene& s, bool initial_state = true, StaticCache* cache = nullptr);
+RodBatch<T> build_scene_batch(const Scene& s, bool initial_state = true);
 
 // [simulation] dt, or stable_dt(batch).elastic × dt_safety for "auto".
 // Then shortened to the largest step that divides output_interval into

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "manyrods/runner.h"
+#include "run/parts.h"
 
 namespace manyrods::scene {
 

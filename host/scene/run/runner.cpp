@@ -17,6 +17,8 @@
 #include <type_traits>
 
 #include "io/state_bytes.h"
+#include "run/parts.h"
+#include "setup/static_cache.h"
 #include "run/validity.h"
 #include "manyrods/scene.h"
 
@@ -76,8 +78,8 @@ void check_output(const std::string& path, std::uint64_t bytes) {
 template <class T>
 class SceneRun {
  public:
-  SceneRun(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart)
-      : s_(s), opt_(opt), restart_(restart), choice_(step_choice(s)), b_(build_scene_batch<T>(s, restart == nullptr, opt.static_cache)) {
+  SceneRun(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart, StaticCache* cache)
+      : s_(s), opt_(opt), restart_(restart), choice_(step_choice(s)), b_(build_scene_batch<T>(s, restart == nullptr, cache)) {
     res_.dt = restart ? restart->dt : scene_dt(s, b_);
     res_.elements = b_.element_count();
     plan_steps();
@@ -567,9 +569,40 @@ class SceneRun {
 
 }  // namespace
 
+namespace {
+RunResult run_from(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart, StaticCache* cache = nullptr) {
+  if (s.sim.precision == Precision::float32) return SceneRun<float>(s, opt, restart, cache).run();
+  return SceneRun<double>(s, opt, restart, cache).run();
+}
+}  // namespace
+
+RunResult run_scene(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart, StaticCache* cache) {
+  return run_from(s, opt, restart, cache);
+}
+
 RunResult run_scene(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart) {
-  if (s.sim.precision == Precision::float32) return SceneRun<float>(s, opt, restart).run();
-  return SceneRun<double>(s, opt, restart).run();
+  if (!opt.resume || restart) return run_from(s, opt, restart);
+  // resume: from the last complete part's checkpoint (the .tmp of a part
+  // that was being written is removed), or from the start
+  const std::vector<std::string> parts = list_parts(opt.output, true);
+  RunOptions ro = opt;
+  if (parts.empty()) {
+    if (opt.on_note)
+      opt.on_note("note: resume: no checkpoint of " + opt.output + " yet (" + parts_dir(opt.output) +
+                  " holds no complete part): running from the start");
+    ro.resume = false;
+    return run_from(s, ro, nullptr);
+  }
+  const h5::Checkpoint c = h5::read_checkpoint(parts.back());
+  if (c.scene_text != s.text)
+    throw SceneError(s.source + ": resume: the parts in " + parts_dir(opt.output) +
+                     " were made from a different scene text (the scene file changed?)");
+  if (opt.on_note) {
+    char line[64];
+    std::snprintf(line, sizeof line, " (t = %.6g s, step %lld)", c.time, (long long)c.steps);
+    opt.on_note("resuming from " + parts.back() + line);
+  }
+  return run_from(s, ro, &c);
 }
 
 std::string stage_report(const StageTimes& st) {

@@ -1,5 +1,6 @@
 // host/scene/setup/scene_run.cpp — building and stepping a scene's batch (include/manyrods/scene.h "the batch of a scene").
 #include "manyrods/scene.h"
+#include "setup/static_cache.h"
 
 #include <algorithm>
 #include <cmath>
@@ -305,6 +306,11 @@ void copy_static_states(const std::vector<Solved>& solved, const std::vector<std
 }  // namespace
 
 template <class T>
+RodBatch<T> build_scene_batch(const Scene& s, bool initial_state) {
+  return build_scene_batch<T>(s, initial_state, nullptr);
+}
+
+template <class T>
 RodBatch<T> build_scene_batch(const Scene& s, bool initial_state, StaticCache* cache) {
   check_batch_size(s);
   const StepChoice choice = step_choice(s);
@@ -426,7 +432,8 @@ void gather_directors(const RodBatch<T>& b, std::vector<T>& out) {
 }
 
 #define MANYRODS_SCENE_INSTANTIATE(T)                                                            \
-  template RodBatch<T> build_scene_batch<T>(const Scene&, bool, StaticCache*);                                 \
+  template RodBatch<T> build_scene_batch<T>(const Scene&, bool);                                 \
+  template RodBatch<T> build_scene_batch<T>(const Scene&, bool, StaticCache*);                   \
   template double scene_dt<T>(const Scene&, const RodBatch<T>&);                                 \
   template void advance_scene<T>(RodBatch<T>&, const StepChoice&, T, std::int64_t, const Exec&); \
   template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);               \

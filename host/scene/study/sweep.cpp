@@ -1,5 +1,6 @@
 // host/scene/study/sweep.cpp — parameter sweeps (include/manyrods/sweep.h).
 #include "manyrods/sweep.h"
+#include "setup/static_cache.h"
 
 #include "manyrods/rng.h"
 
@@ -407,7 +408,9 @@ std::vector<h5::Column> sweep_parameters(const Sweep& sw) {
   return cols;
 }
 
-SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart) {
+namespace {
+// run_sweep, the batch's static states taken from `cache` where it has them.
+SweepRun run_sweep_cached(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart, StaticCache* cache) {
   SweepRun out;
   opt.probes = sw.probes;
   out.parameters = sweep_parameters(sw);
@@ -422,8 +425,13 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
       w.add_sweep_table("sensitivity", out.sensitivity, "indices", sensitivity_names(sw.names));
     }
   };
-  out.run = run_scene(sw.scene, opt, restart);
+  out.run = run_scene(sw.scene, opt, restart, cache);
   return out;
+}
+}  // namespace
+
+SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restart) {
+  return run_sweep_cached(sw, std::move(opt), restart, nullptr);
 }
 
 const std::vector<std::string>& sweep_summary_names() {
@@ -768,8 +776,7 @@ bool run_chunk(Chunks& c, int k, const Scene& base, double dt, const RunOptions&
   }
   RunOptions o = opt;
   o.output = file + ".part";
-  o.static_cache = &statics;
-  SweepRun r = run_sweep(sw, o);
+  SweepRun r = run_sweep_cached(sw, o, nullptr, &statics);
   if (on_chunk) on_chunk(k, c.out.chunks, &r.run);
   if (r.run.interrupted) return false;
   std::error_code ec;
