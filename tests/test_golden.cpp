@@ -25,7 +25,7 @@
 //      on x86-64 with -march=native (MANYRODS_NATIVE, the default) and
 //        - AVX2 and FMA without AVX-512 (the AMD EPYC machine of
 //          bench/RESULTS.md), or
-//        - AVX-512 (the Intel machines this project's CI and development
+//        - AVX-512 (the AMD EPYC and Intel machines this project's CI and development
 //          run on; the step's loops 8 or 16 lanes wide with 512-bit vectors).
 //      Both recorded the same hashes (the AVX-512 ones on 2026-12-04: the
 //      lane loops do the same operations per entry whatever their width, and

@@ -8,12 +8,14 @@
 #include <array>
 #include <cerrno>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
 #include <new>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <vector>
 
@@ -33,6 +35,18 @@ static_assert(MR_VERSION == MANYRODS_VERSION_NUMBER, "manyrods_c.h: MR_VERSION_*
 static_assert(sizeof(mr_energies) == sizeof(double) * (0 MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_COUNT)),
               "manyrods_c.h: mr_energies is not the list of include/manyrods/step.h MANYRODS_ENERGY_FIELDS");
 #undef MANYRODS_ENERGY_COUNT
+// mr_state_view and mr_loads_view end with a pointer per entry of
+// MANYRODS_PUBLIC_ARRAYS of their group (filled by name below) and nothing else.
+#define MANYRODS_COUNT_ARRAY(group, field, name, doc) +(std::string_view(#group) == "state" ? 1 : 0)
+static_assert(sizeof(mr_state_view) ==
+                  offsetof(mr_state_view, node_position) + sizeof(void*) * (0 MANYRODS_PUBLIC_ARRAYS(MANYRODS_COUNT_ARRAY)),
+              "manyrods_c.h: mr_state_view is not the state entries of MANYRODS_PUBLIC_ARRAYS");
+#undef MANYRODS_COUNT_ARRAY
+#define MANYRODS_COUNT_ARRAY(group, field, name, doc) +(std::string_view(#group) == "loads" ? 1 : 0)
+static_assert(sizeof(mr_loads_view) ==
+                  offsetof(mr_loads_view, node_force) + sizeof(void*) * (0 MANYRODS_PUBLIC_ARRAYS(MANYRODS_COUNT_ARRAY)),
+              "manyrods_c.h: mr_loads_view is not the loads entries of MANYRODS_PUBLIC_ARRAYS");
+#undef MANYRODS_COUNT_ARRAY
 
 struct mr_batch {
   manyrods::scene::AnyBatch b;
@@ -319,10 +333,12 @@ mr_status mr_batch_state_view(const mr_batch* b, mr_state_view* out) {
     out->precision = precision_of(rb);
     out->slots = std::size_t(rb.slots());
     out->component_stride = stride_of(rb.state.node_x);
-    out->node_position = rb.state.node_x[0].data();
-    out->node_velocity = rb.state.node_v[0].data();
-    out->element_directors = rb.state.elem_Q[0].data();
-    out->element_omega = rb.state.elem_w[0].data();
+#define MANYRODS_C_VIEW(group, field, name, doc) MANYRODS_C_VIEW_##group(field, name)
+#define MANYRODS_C_VIEW_state(field, name) out->name = rb.state.field[0].data();
+#define MANYRODS_C_VIEW_loads(field, name)
+    MANYRODS_PUBLIC_ARRAYS(MANYRODS_C_VIEW)
+#undef MANYRODS_C_VIEW_state
+#undef MANYRODS_C_VIEW_loads
   });
   return MR_OK;
 }
@@ -342,8 +358,12 @@ mr_status mr_batch_loads_view(mr_batch* b, mr_loads_view* out) {
     out->precision = precision_of(rb);
     out->slots = std::size_t(rb.slots());
     out->component_stride = stride_of(rb.loads.node_force);
-    out->node_force = rb.loads.node_force[0].data();
-    out->element_couple = rb.loads.elem_couple[0].data();
+#define MANYRODS_C_VIEW_state(field, name)
+#define MANYRODS_C_VIEW_loads(field, name) out->name = rb.loads.field[0].data();
+    MANYRODS_PUBLIC_ARRAYS(MANYRODS_C_VIEW)
+#undef MANYRODS_C_VIEW_state
+#undef MANYRODS_C_VIEW_loads
+#undef MANYRODS_C_VIEW
   });
   return MR_OK;
 }

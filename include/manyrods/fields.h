@@ -62,6 +62,20 @@
   X(node_force, 3, 0, 0, "[3][slots] N: point force on a node")                                  \
   X(elem_couple, 3, 0, 0, "[3][slots] N·m: couple on an element")
 
+// The arrays a user reads and sets by name, one entry each:
+// X(group, field, public name, "shape, unit: meaning"). The Python Batch's
+// views (state read-only, loads writable), the C API's mr_state_view and
+// mr_loads_view members (filled by name, checked by size when the C API
+// compiles) and the HDF5 frames' datasets (fields::public_name) take their
+// names from this list.
+#define MANYRODS_PUBLIC_ARRAYS(X)                                                                             \
+  X(state, node_x, node_position, "(3, slots) m: node positions, lab frame")                                   \
+  X(state, node_v, node_velocity, "(3, slots) m/s: node velocities, lab frame")                                \
+  X(state, elem_Q, element_directors, "(3, 3, slots) 1: frames, [i, :, k] = director d_(i+1) of slot k")       \
+  X(state, elem_w, element_omega, "(3, slots) rad/s: angular velocities, material components")                 \
+  X(loads, node_force, node_force, "(3, slots) N: dead point forces on the nodes, lab frame")                  \
+  X(loads, elem_couple, element_couple, "(3, slots) N·m: dead couples on the elements, lab frame")
+
 // Counting helpers (for byte estimates): arrays of a group for a batch of
 // this precision.
 #define MANYRODS_FIELD_ARRAYS(name, n, fill, float_only, doc) +(float_only ? (is_float ? n : 0) : n)
@@ -70,5 +84,12 @@ constexpr int model_arrays(bool is_float = false) { return 0 MANYRODS_MODEL_FIEL
 constexpr int state_arrays(bool is_float) { return 0 MANYRODS_STATE_FIELDS(MANYRODS_FIELD_ARRAYS); }
 constexpr int scratch_arrays(bool is_float = false) { return 0 MANYRODS_SCRATCH_FIELDS(MANYRODS_FIELD_ARRAYS); }
 constexpr int loads_arrays(bool is_float = false) { return 0 MANYRODS_LOADS_FIELDS(MANYRODS_FIELD_ARRAYS); }
+// The public name of a field of MANYRODS_PUBLIC_ARRAYS: public_name::node_x
+// is "node_position".
+namespace public_name {
+#define MANYRODS_PUBLIC_NAME(group, field, name, doc) inline constexpr const char* field = #name;
+MANYRODS_PUBLIC_ARRAYS(MANYRODS_PUBLIC_NAME)
+#undef MANYRODS_PUBLIC_NAME
+}  // namespace public_name
 }  // namespace manyrods::fields
 #undef MANYRODS_FIELD_ARRAYS

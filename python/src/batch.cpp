@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "bindings.h"
@@ -62,22 +63,6 @@ nb::object field_view(const std::array<manyrods::Array<T>, N>& a, int slots, boo
   return nb::cast(v, nb::rv_policy::reference);
 }
 
-enum class Field { node_x, node_v, elem_Q, elem_w, node_force, elem_couple };
-
-nb::object view(PyBatch& pb, Field f, nb::handle self) {
-  return pb.b.visit([&](auto& b) -> nb::object {
-    const int S = b.slots();
-    switch (f) {
-      case Field::node_x: return field_view(b.state.node_x, S, false, false, self);
-      case Field::node_v: return field_view(b.state.node_v, S, false, false, self);
-      case Field::elem_Q: return field_view(b.state.elem_Q, S, false, true, self);
-      case Field::elem_w: return field_view(b.state.elem_w, S, false, false, self);
-      case Field::node_force: return field_view(b.loads.node_force, S, true, false, self);
-      case Field::elem_couple: return field_view(b.loads.elem_couple, S, true, false, self);
-    }
-    return nb::none();
-  });
-}
 
 using Values = nb::ndarray<const double, nb::device::cpu>;
 
@@ -251,25 +236,21 @@ void bind_batch_layout(nb::class_<PyBatch>& c) {
 
 // The state and load views, their setters, and a copy of the positions.
 void bind_batch_state(nb::class_<PyBatch>& c) {
-  c.def_prop_ro(
-       "node_position", [](nb::handle self) { return view(nb::cast<PyBatch&>(self), Field::node_x, self); },
-       "(3, slots) m, read-only view (set_node_position writes)")
-      .def_prop_ro(
-          "node_velocity", [](nb::handle self) { return view(nb::cast<PyBatch&>(self), Field::node_v, self); },
-          "(3, slots) m/s, read-only view")
-      .def_prop_ro(
-          "element_directors", [](nb::handle self) { return view(nb::cast<PyBatch&>(self), Field::elem_Q, self); },
-          "(3, 3, slots) frames, [i, :, k] = director d_(i+1) of slot k, read-only view")
-      .def_prop_ro(
-          "element_omega", [](nb::handle self) { return view(nb::cast<PyBatch&>(self), Field::elem_w, self); },
-          "(3, slots) rad/s, material components, read-only view")
-      .def_prop_ro(
-          "node_force", [](nb::handle self) { return view(nb::cast<PyBatch&>(self), Field::node_force, self); },
-          "(3, slots) N, lab frame: dead loads, a writable view")
-      .def_prop_ro(
-          "element_couple", [](nb::handle self) { return view(nb::cast<PyBatch&>(self), Field::elem_couple, self); },
-          "(3, slots) N·m, lab frame: dead couples, a writable view")
-      .def(
+  // the views, one per entry of include/manyrods/fields.h MANYRODS_PUBLIC_ARRAYS:
+  // the state read-only (its setters below write it), the loads writable
+#define MANYRODS_PY_VIEW(group, field, name, doc)                                                          \
+  c.def_prop_ro(                                                                                           \
+      #name,                                                                                               \
+      [](nb::handle self) {                                                                                \
+        return nb::cast<PyBatch&>(self).b.visit([&](auto& b) -> nb::object {                              \
+          constexpr bool kWritable = std::string_view(#group) == "loads";                                  \
+          return field_view(b.group.field, b.slots(), kWritable, b.group.field.size() == 9, self);        \
+        });                                                                                                \
+      },                                                                                                   \
+      std::string_view(#group) == "loads" ? doc ", a writable view" : doc ", a read-only view");
+  MANYRODS_PUBLIC_ARRAYS(MANYRODS_PY_VIEW)
+#undef MANYRODS_PY_VIEW
+  c.def(
           "set_node_position",
           [](PyBatch& p, const Values& v, std::optional<int> rod) { set_vectors(p, v, rod, true, false, "node_position"); },
           "values"_a, "rod"_a = nb::none(),

@@ -51,9 +51,12 @@ inline void set_fp_mode([[maybe_unused]] unsigned mode) {
 #endif
 }
 // The calling thread's mode outside the outermost step it is in, and how
-// deep in steps it is (a step may call another's stages).
-inline thread_local unsigned t_outside_mode = 0;
-inline thread_local int t_step_depth = 0;
+// deep in steps it is (a step may call another's stages). Defined once, in
+// fp_env.cpp: every build of the step (host/core/isa/isa_variant.cpp) shares
+// them with the baseline's code (an inline variable would give the variant
+// an unshared copy of its own, which its linking also refuses).
+extern thread_local unsigned t_outside_mode;
+extern thread_local int t_step_depth;
 }  // namespace detail
 
 // A step's mode on its calling thread: set for the scope, then restored.

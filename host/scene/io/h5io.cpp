@@ -333,9 +333,9 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
                 ec = std::min<hsize_t>(hsize_t(w.elements), 1 << 14);
   w.time = create_dataset(f, "time", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
   w.pos =
-      create_dataset(f, "node_position", w.real_type(), {0, hsize_t(w.nodes), 3}, {1, nc, 3}, true, w.tmp);
+      create_dataset(f, fields::public_name::node_x, w.real_type(), {0, hsize_t(w.nodes), 3}, {1, nc, 3}, true, w.tmp);
   if (layout.directors)
-    w.dir = create_dataset(f, "element_directors", w.real_type(), {0, hsize_t(w.elements), 3, 3},
+    w.dir = create_dataset(f, fields::public_name::elem_Q, w.real_type(), {0, hsize_t(w.elements), 3, 3},
                            {1, ec, 3, 3}, true, w.tmp);
   w.energy_group = checked(H5Gcreate2(f, "energy", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
                            "cannot create /energy");
@@ -365,10 +365,10 @@ Writer::~Writer() {
 void Writer::append_frame(double t, const void* positions, const void* directors, const EnergyRow& e) {
   Impl& w = *impl_;
   append_row(w.time.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &t, w.tmp, "time");
-  append_row(w.pos.get(), w.real_type(), w.frames, {hsize_t(w.nodes), 3}, positions, w.tmp, "node_position");
+  append_row(w.pos.get(), w.real_type(), w.frames, {hsize_t(w.nodes), 3}, positions, w.tmp, fields::public_name::node_x);
   if (w.layout.directors)
     append_row(w.dir.get(), w.real_type(), w.frames, {hsize_t(w.elements), 3, 3}, directors, w.tmp,
-               "element_directors");
+               fields::public_name::elem_Q);
 #define MANYRODS_FRAME_ENERGY_VALUE(name, unit, doc) e.name,
   const double v[kEnergies] = {MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_VALUE)};
 #undef MANYRODS_FRAME_ENERGY_VALUE
@@ -578,9 +578,9 @@ void write_sweep_index(const std::string& path, const SweepIndex& x) {
       write_vector(f.get(), "node_offsets", H5T_NATIVE_INT64, x.node_offsets, tmp);
       write_vector(f.get(), "element_offsets", H5T_NATIVE_INT64, x.element_offsets, tmp);
       const hid_t type = x.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
-      virtual_concat(f.get(), "node_position", type, x.time.size(), x.chunk_files, x.chunk_nodes, 3, tmp);
+      virtual_concat(f.get(), fields::public_name::node_x, type, x.time.size(), x.chunk_files, x.chunk_nodes, 3, tmp);
       if (x.directors)
-        virtual_concat(f.get(), "element_directors", type, x.time.size(), x.chunk_files, x.chunk_elements, 9, tmp);
+        virtual_concat(f.get(), fields::public_name::elem_Q, type, x.time.size(), x.chunk_files, x.chunk_elements, 9, tmp);
     }
   }
   std::error_code ec;
@@ -826,7 +826,7 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
       o.energy[std::size_t(k)].max_penetration = d[std::size_t(k)];
     }
   }
-  r.pos = open_dataset(f, "node_position", path);
+  r.pos = open_dataset(f, fields::public_name::node_x, path);
   const auto dims = dataset_dims(r.pos.get());
   const std::vector<hsize_t> want{hsize_t(r.frames), hsize_t(o.nodes), 3};
   if (dims != want) fail(path, "/node_position has shape " + dims_str(dims) + ", expected " + dims_str(want));
@@ -858,14 +858,14 @@ const Output& Reader::output() const { return impl_->out; }
 std::int64_t Reader::frames() const { return impl_->frames; }
 
 bool Reader::has_directors() const {
-  return H5Lexists(impl_->file.get(), "element_directors", H5P_DEFAULT) > 0;
+  return H5Lexists(impl_->file.get(), fields::public_name::elem_Q, H5P_DEFAULT) > 0;
 }
 
 void Reader::read_directors(std::int64_t f, std::vector<double>& out) const {
   Impl& r = *impl_;
   if (f < 0 || f >= r.frames) fail(r.path, "frame " + std::to_string(f) + " out of range");
   if (!r.dir.ok())
-    r.dir = checked(H5Dopen2(r.file.get(), "element_directors", H5P_DEFAULT), H5Dclose, r.path,
+    r.dir = checked(H5Dopen2(r.file.get(), fields::public_name::elem_Q, H5P_DEFAULT), H5Dclose, r.path,
                     "no /element_directors (written with output_directors = false?)");
   const std::int64_t elements = r.out.element_offsets.back();
   plausible(r.path, "/element_directors", double(elements) * 9, 8);

@@ -9,6 +9,7 @@
 #include <mutex>
 #include <unordered_map>
 #include <sstream>
+#include <stdexcept>
 
 #include "manyrods/stable_dt.h"
 #include "manyrods/statics.h"
@@ -24,36 +25,28 @@ constexpr Terms terms_of() {
   return t;
 }
 
-template <bool kKV, bool kColliders, bool kRods>
-constexpr Terms contact_terms_of() {
-  Terms t;
-  t.kelvin_voigt = kKV;
-  t.colliders = kColliders;
-  t.rod_contact = kRods;
-  return t;
-}
-
-// Calls f.template operator()<kT>() with the Terms the choice selects
-// (contact: the library's contact Terms, which have gravity on; a batch
-// without the gravity term has zero gravity then, give_contact).
+// Calls f.template operator()<kT>() with the compiled Terms
+// (include/manyrods/step.h MANYRODS_PLAIN_TERMS, MANYRODS_CONTACT_TERMS:
+// the list the library instantiates) equal to the choice's: its
+// Kelvin–Voigt term and gravity, or with contact the library's contact
+// Terms, which have gravity on (a batch without the gravity term has zero
+// gravity then, give_contact).
 template <class F>
 decltype(auto) with_terms(const StepChoice& c, F&& f, bool contact = true) {
+  Terms want;  // (every elastic term and the loads on, no contact)
+  want.kelvin_voigt = c.kelvin_voigt;
   if (contact && (c.colliders || c.rod_contact)) {
-    if (c.kelvin_voigt) {
-      if (!c.rod_contact) return f.template operator()<contact_terms_of<true, true, false>()>();
-      if (!c.colliders) return f.template operator()<contact_terms_of<true, false, true>()>();
-      return f.template operator()<contact_terms_of<true, true, true>()>();
-    }
-    if (!c.rod_contact) return f.template operator()<contact_terms_of<false, true, false>()>();
-    if (!c.colliders) return f.template operator()<contact_terms_of<false, false, true>()>();
-    return f.template operator()<contact_terms_of<false, true, true>()>();
+    want.colliders = c.colliders;
+    want.rod_contact = c.rod_contact;
+  } else {
+    want.gravity = c.gravity;
   }
-  if (c.kelvin_voigt) {
-    if (c.gravity) return f.template operator()<terms_of<true, true>()>();
-    return f.template operator()<terms_of<true, false>()>();
-  }
-  if (c.gravity) return f.template operator()<terms_of<false, true>()>();
-  return f.template operator()<terms_of<false, false>()>();
+#define MANYRODS_WITH_TERMS(unused, TERMS) \
+  if (terms_mask(want) == terms_mask(TERMS)) return f.template operator()<TERMS>();
+  MANYRODS_PLAIN_TERMS(MANYRODS_WITH_TERMS, _)
+  MANYRODS_CONTACT_TERMS(MANYRODS_WITH_TERMS, _)
+#undef MANYRODS_WITH_TERMS
+  throw std::logic_error("with_terms: the library compiles no Terms for this choice");
 }
 
 // Zeroes the stiffness of the terms a group switches off (see the header).
