@@ -190,29 +190,26 @@ struct RodInfo {
   Drag drag{};                // RodSpec::drag
 };
 
-// The batch's fluid (set_fluid fills it; include/manyrods/fluid.h). The node
-// arrays are lumped (ℓ_k = half the elements on either side included) and
-// allocated only when a fluid is set: a batch without one holds none.
-template <class T>
-struct FluidData {
-  bool on = false;
-  bool linear = false, quadratic = false, buoyancy = false;  // which parts any rod has
-  Fluid spec;
-  std::vector<TurbulentMode> modes;  // from spec.turbulence
-  Array<T> node_cn, node_ct;   // N·s/m: c⊥ℓ, c∥ℓ
-  Array<T> node_qn, node_qt;   // kg/m: ½ρC⊥dℓ, ½ρC∥πdℓ
-  Array<T> node_buoyancy;      // kg: ρ_f A ℓ
-  Array<T> node_half_left, node_half_right;  // m: l̂_{k−1}/2, l̂_k/2 (0 off the rod)
-  std::array<Array<T>, 3> node_v_saved;      // m/s: the velocities before the kick (scratch)
-  std::array<Array<T>, 3> node_wind;         // m/s: the wind at the nodes, with turbulence (scratch)
-};
-
 // One field of the lists in include/manyrods/fields.h: one array, or one
 // array per component.
 template <class T, int N>
 using FieldArray = std::conditional_t<N == 1, Array<T>, std::array<Array<T>, N>>;
 
 #define MANYRODS_STORAGE_MEMBER(name, n, fill, float_only, doc) FieldArray<T, n> name;
+
+// The batch's fluid (set_fluid fills it; include/manyrods/fluid.h): its
+// node arrays are include/manyrods/fields.h MANYRODS_FLUID_FIELDS, allocated
+// only when a fluid is set (a batch without one holds none).
+template <class T>
+struct FluidData {
+  bool on = false;
+  bool linear = false, quadratic = false, buoyancy = false;  // which parts any rod has
+  Fluid spec;
+  std::vector<TurbulentMode> modes;  // from spec.turbulence
+#define MANYRODS_FLUID_MEMBER(name, view, n, doc) FieldArray<T, n> name;
+  MANYRODS_FLUID_FIELDS(MANYRODS_FLUID_MEMBER)
+#undef MANYRODS_FLUID_MEMBER
+};
 
 // Constant during a run (include/manyrods/fields.h MANYRODS_MODEL_FIELDS has
 // every array with its shape and unit).

@@ -62,6 +62,23 @@
   X(node_force, 3, 0, 0, "[3][slots] N: point force on a node")                                  \
   X(elem_couple, 3, 0, 0, "[3][slots] N·m: couple on an element")
 
+// A batch's fluid arrays (RodBatch::fluid, include/manyrods/batch.h
+// FluidData), allocated by set_fluid only (zero at first; the node arrays
+// lumped: ℓ_k is half the elements on either side):
+// X(name, its member in the kernels' FluidView (kernels/fluid.h), components, "shape, unit: meaning").
+// The storage, the allocation (host/core/model/fluid.cpp) and the view
+// (host/core/step/fluid_stage.h) come from it.
+#define MANYRODS_FLUID_FIELDS(X)                                                                    \
+  X(node_cn, cn, 1, "[slots] N·s/m: c⊥ℓ, the linear drag across the rod")                           \
+  X(node_ct, ct, 1, "[slots] N·s/m: c∥ℓ, the linear drag along it")                                 \
+  X(node_qn, qn, 1, "[slots] kg/m: ½ρC⊥dℓ, the quadratic drag across it")                           \
+  X(node_qt, qt, 1, "[slots] kg/m: ½ρC∥πdℓ, the quadratic drag along it")                           \
+  X(node_buoyancy, buoyancy, 1, "[slots] kg: ρ_f A ℓ, the displaced fluid's mass")                  \
+  X(node_half_left, half_left, 1, "[slots] m: l̂_{k−1}/2 (0 off the rod)")                           \
+  X(node_half_right, half_right, 1, "[slots] m: l̂_k/2 (0 off the rod)")                             \
+  X(node_v_saved, saved, 3, "[3][slots] m/s: the velocities before the kick (scratch)")            \
+  X(node_wind, wind, 3, "[3][slots] m/s: the wind at the nodes, with turbulence (scratch)")
+
 // The arrays a user reads and sets by name, one entry each:
 // X(group, field, public name, "shape, unit: meaning"). The Python Batch's
 // views (state read-only, loads writable), the C API's mr_state_view and

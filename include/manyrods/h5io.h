@@ -22,7 +22,7 @@
 //                         observed_last} (its records so far)
 //   /observables          a run's observables, one value per dataset
 //   /sweep                (manyrods sweep) parameters, summary and statistics columns
-// Root attributes: format = "manyrods", format_version = 1, precision,
+// Root attributes: format = "manyrods", format_version = 2, precision,
 // integrator, dt. Frames are chunked one frame per chunk (at most 2^16 nodes)
 // and compressed (shuffle + deflate).
 //

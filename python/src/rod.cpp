@@ -177,29 +177,28 @@ void bind_rod_factories(nb::class_<RodSpec>& c) {
           "d3; default: parallel transport (twist-free) from `first_normal`.");
 }
 
+// A held end's host motion by name (a HostMotion; None: static), for
+// root_driver and tip_driver.
+template <std::shared_ptr<const manyrods::RootMotion> RodSpec::*kMotion>
+void def_driver(nb::class_<RodSpec>& c, const char* name, const char* doc) {
+  c.def_prop_rw(
+      name,
+      [](const RodSpec& r) -> std::optional<std::string> {
+        if (auto h = std::dynamic_pointer_cast<const manyrods::HostMotion>(r.*kMotion)) return h->name();
+        return std::nullopt;
+      },
+      [](RodSpec& r, std::optional<std::string> motion) {
+        r.*kMotion = motion ? std::make_shared<manyrods::HostMotion>(*motion) : nullptr;
+      },
+      doc);
+}
+
 // Host motions, holds, parameters and the (copied) arrays.
 void bind_rod_fields(nb::class_<RodSpec>& c) {
-  c.def_prop_rw(
-       "root_driver",
-       [](const RodSpec& r) -> std::optional<std::string> {
-         if (auto h = std::dynamic_pointer_cast<const manyrods::HostMotion>(r.root_motion)) return h->name();
-         return std::nullopt;
-       },
-       [](RodSpec& r, std::optional<std::string> name) {
-         r.root_motion = name ? std::make_shared<manyrods::HostMotion>(*name) : nullptr;
-       },
-       "the host motion the held root follows, by name (Batch.set_driver_pose); None: static")
-      .def_prop_rw(
-          "tip_driver",
-          [](const RodSpec& r) -> std::optional<std::string> {
-            if (auto h = std::dynamic_pointer_cast<const manyrods::HostMotion>(r.tip_motion)) return h->name();
-            return std::nullopt;
-          },
-          [](RodSpec& r, std::optional<std::string> name) {
-            r.tip_motion = name ? std::make_shared<manyrods::HostMotion>(*name) : nullptr;
-          },
-          "the host motion the held tip follows, by name; None: static")
-      .def_rw("name", &RodSpec::name)
+  def_driver<&RodSpec::root_motion>(
+      c, "root_driver", "the host motion the held root follows, by name (Batch.set_driver_pose); None: static");
+  def_driver<&RodSpec::tip_motion>(c, "tip_driver", "the host motion the held tip follows, by name; None: static");
+  c.def_rw("name", &RodSpec::name)
       .def_rw("section", &RodSpec::section)
       .def_rw("material", &RodSpec::material)
       .def_rw("damping", &RodSpec::damping)

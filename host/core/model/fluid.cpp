@@ -158,10 +158,15 @@ void set_fluid(RodBatch<T>& b, const Fluid& fluid) {
   f.on = f.linear || f.quadratic || f.buoyancy;
   if (!f.on) return;
   const std::size_t n = std::size_t(b.slots());
-  for (Array<T>* a : {&f.node_cn, &f.node_ct, &f.node_qn, &f.node_qt, &f.node_buoyancy, &f.node_half_left,
-                      &f.node_half_right, &f.node_v_saved[0], &f.node_v_saved[1], &f.node_v_saved[2], &f.node_wind[0], &f.node_wind[1],
-                      &f.node_wind[2]})
-    a->resize(n, T(0));
+  auto allocate = [n](auto& a) {  // (one array, or one per component)
+    if constexpr (std::is_same_v<std::decay_t<decltype(a)>, Array<T>>)
+      a.resize(n, T(0));
+    else
+      for (Array<T>& c : a) c.resize(n, T(0));
+  };
+#define MANYRODS_FLUID_ALLOCATE(name, view, components, doc) allocate(f.name);
+  MANYRODS_FLUID_FIELDS(MANYRODS_FLUID_ALLOCATE)
+#undef MANYRODS_FLUID_ALLOCATE
   for (const RodInfo& r : b.rods) {
     const Drag& d = r.drag;
     const double diameter = 2 * r.contact_radius, area = r.section.area;

@@ -23,20 +23,21 @@ void fluid_launch(RodBatch<T>& b, T h, const FluidView<T>& f, const Exec& ex, co
   const StateView<T> s = b.state_view();
   launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { fluid_node<kF>(k, h, f, m, s); });
 }
+template <class P, class T>
+void fluid_view_of(P& dst, Array<T>& a) {
+  dst = a.data();
+}
+template <class P, class T, std::size_t N>
+void fluid_view_of(P (&dst)[N], std::array<Array<T>, N>& a) {
+  for (std::size_t d = 0; d < N; ++d) dst[d] = a[d].data();
+}
+// The kernels' view of the fluid arrays (MANYRODS_FLUID_FIELDS).
 template <class T>
 FluidView<T> fluid_arrays(FluidData<T>& fd) {
   FluidView<T> f{};
-  f.cn = fd.node_cn.data();
-  f.ct = fd.node_ct.data();
-  f.qn = fd.node_qn.data();
-  f.qt = fd.node_qt.data();
-  f.buoyancy = fd.node_buoyancy.data();
-  f.half_left = fd.node_half_left.data();
-  f.half_right = fd.node_half_right.data();
-  for (int d = 0; d < 3; ++d) {
-    f.saved[d] = fd.node_v_saved[d].data();
-    f.wind[d] = fd.node_wind[d].data();
-  }
+#define MANYRODS_FLUID_VIEW(name, view, n, doc) fluid_view_of(f.view, fd.name);
+  MANYRODS_FLUID_FIELDS(MANYRODS_FLUID_VIEW)
+#undef MANYRODS_FLUID_VIEW
   return f;
 }
 }  // namespace detail
