@@ -103,6 +103,30 @@ void bind_materials(nb::module_& m) {
 
 namespace {
 
+// The unit axis least aligned with d (a default normal for a rod along d).
+Vec3 least_aligned_axis(const Vec3& d) {
+  int a = 0;
+  for (int i = 1; i < 3; ++i)
+    if (std::abs(d[i]) < std::abs(d[a])) a = i;
+  Vec3 n{0, 0, 0};
+  n[a] = 1;
+  return n;
+}
+
+// r with the properties both named constructors take.
+RodSpec with_properties(RodSpec r, const manyrods::Section& section, const manyrods::Material& material,
+                        const manyrods::Damping& damping, const std::string& root, const std::string& tip, bool stiff,
+                        const std::string& name) {
+  r.section = section;
+  r.material = material;
+  r.damping = damping;
+  set_hold(r, true, root);
+  set_hold(r, false, tip);
+  r.stiff_implicit = stiff;
+  r.name = name;
+  return r;
+}
+
 // The named constructors: straight and polyline.
 void bind_rod_factories(nb::class_<RodSpec>& c) {
   c.def_static(
@@ -112,26 +136,10 @@ void bind_rod_factories(nb::class_<RodSpec>& c) {
           const manyrods::Material& material, const manyrods::Damping& damping, const std::string& root,
           const std::string& tip, bool stiff, const std::string& name) {
          const Vec3 d = vec3(direction, "direction");
-         Vec3 n;
-         if (normal) {
-           n = vec3(*normal, "normal");
-         } else {  // the axis least aligned with the rod
-           int a = 0;
-           for (int i = 1; i < 3; ++i)
-             if (std::abs(d[i]) < std::abs(d[a])) a = i;
-           n = {0, 0, 0};
-           n[a] = 1;
-         }
+         const Vec3 n = normal ? vec3(*normal, "normal") : least_aligned_axis(d);
          if (!(elements >= 1)) throw manyrods::InputError("elements: must be >= 1 (got " + std::to_string(elements) + ")");
-         RodSpec r = RodSpec::straight(vec3(start, "start"), d, n, length, elements);
-         r.section = section;
-         r.material = material;
-         r.damping = damping;
-         set_hold(r, true, root);
-         set_hold(r, false, tip);
-         r.stiff_implicit = stiff;
-         r.name = name;
-         return r;
+         return with_properties(RodSpec::straight(vec3(start, "start"), d, n, length, elements), section, material,
+                                damping, root, tip, stiff, name);
        },
        "start"_a, "direction"_a, "length"_a, "elements"_a, nb::kw_only(), "normal"_a = nb::none(),
        "section"_a = manyrods::Section{}, "material"_a = manyrods::Material{}, "damping"_a = manyrods::Damping{},
@@ -148,27 +156,12 @@ void bind_rod_factories(nb::class_<RodSpec>& c) {
             if (frames) {
               q = frames_of(*frames, "frames");
             } else {
-              Vec3 t{x[1][0] - x[0][0], x[1][1] - x[0][1], x[1][2] - x[0][2]};
-              Vec3 n{0, 0, 0};
-              if (first_normal) {
-                n = vec3(*first_normal, "first_normal");
-              } else {
-                int a = 0;
-                for (int i = 1; i < 3; ++i)
-                  if (std::abs(t[i]) < std::abs(t[a])) a = i;
-                n[a] = 1;
-              }
-              q = RodSpec::parallel_transport_frames(x, n);
+              const Vec3 t{x[1][0] - x[0][0], x[1][1] - x[0][1], x[1][2] - x[0][2]};
+              q = RodSpec::parallel_transport_frames(
+                  x, first_normal ? vec3(*first_normal, "first_normal") : least_aligned_axis(t));
             }
-            RodSpec r = RodSpec::polyline(std::move(x), std::move(q));
-            r.section = section;
-            r.material = material;
-            r.damping = damping;
-            set_hold(r, true, root);
-            set_hold(r, false, tip);
-            r.stiff_implicit = stiff;
-            r.name = name;
-            return r;
+            return with_properties(RodSpec::polyline(std::move(x), std::move(q)), section, material, damping, root, tip,
+                                   stiff, name);
           },
           "nodes"_a, "frames"_a = nb::none(), nb::kw_only(), "first_normal"_a = nb::none(),
           "section"_a = manyrods::Section{}, "material"_a = manyrods::Material{}, "damping"_a = manyrods::Damping{},
