@@ -25,10 +25,12 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "manyrods/array.h"
 #include "manyrods/drive.h"
+#include "manyrods/fields.h"
 
 namespace manyrods {
 
@@ -121,26 +123,24 @@ template <class T>
 struct ContactData {
   bool on = false;  // set_contact was called
   ContactSpec spec;
-  // per slot (model): contact radius (0: ghost), rod index (−1: ghost)
-  Array<T> elem_radius;
-  Array<int> elem_rod;
+  // per slot: include/manyrods/fields.h MANYRODS_CONTACT_VIEW_FIELDS and
+  // MANYRODS_CONTACT_OWN_FIELDS (radius and rod, the contact stage's
+  // scratch, the broad phase's reference positions and reaches)
+#define MANYRODS_CONTACT_VIEW_MEMBER(type, name, view, n, fill, doc) \
+  std::conditional_t<n == 1, Array<type>, std::array<Array<type>, n>> name;
+#define MANYRODS_CONTACT_OWN_MEMBER(type, name, n, fill, doc) \
+  std::conditional_t<n == 1, Array<type>, std::array<Array<type>, n>> name;
+  MANYRODS_CONTACT_VIEW_FIELDS(MANYRODS_CONTACT_VIEW_MEMBER)
+  MANYRODS_CONTACT_OWN_FIELDS(MANYRODS_CONTACT_OWN_MEMBER)
+#undef MANYRODS_CONTACT_VIEW_MEMBER
+#undef MANYRODS_CONTACT_OWN_MEMBER
   std::vector<T> rod_mu;  // [4 × rods] the rods' friction against rods; rod_mu_own[r]: set by the rod
   std::vector<int> rod_mu_own;
   std::vector<int> rod_near;  // [rods] elements |i − j| ≤ this apart touch at the tight-loop chord (kernels/contact.h near_contact_distance)
-  // per slot (scratch of the contact stage, kernels/contact.h)
-  Array<int> elem_count;              // contacts in range of element k (mass splitting)
-  Array<int> elem_count_lo, elem_count_hi;  // of them acting on node k (s < 1), on node k+1 (s > 0)
-  std::array<Array<T>, 3> elem_p0;    // N·s: impulse on node k from element k's contacts
-  std::array<Array<T>, 3> elem_p1;    // N·s: impulse on node k+1
-  std::array<Array<T>, 3> elem_l;     // N·m·s: couple impulse on element k (lab)
-  Array<T> work;                      // J: work of the contact impulses on slot k's node and element, summed over steps
   // rod–rod broad phase (docs/contact.md "Finding rod–rod contacts")
-  std::array<Array<T>, 3> node_x_ref;  // m: node positions at the last rebuild
   Array<int> neighbours;               // [slots × capacity] candidate partner slots of element k, in order
-  Array<int> neighbour_count;          // [slots]
   std::vector<int> cell_start;  // the grid: cell i holds cell_slot[cell_start[i] .. cell_start[i+1])
   std::vector<int> cell_slot;
-  Array<T> elem_skin;  // m: element k's reach s_k at the last build (partners with gap < s_a + s_b are listed)
   double max_radius = 0;  // m: the rods' largest contact radius
   bool built = false;
   std::int64_t rebuilds = 0;

@@ -79,6 +79,29 @@
   X(node_v_saved, saved, 3, "[3][slots] m/s: the velocities before the kick (scratch)")            \
   X(node_wind, wind, 3, "[3][slots] m/s: the wind at the nodes, with turbulence (scratch)")
 
+// A batch's per-slot contact arrays (RodBatch::contact, include/manyrods/contact.h
+// ContactData), allocated by set_contact:
+// X(type, name, components, fill, "shape, unit: meaning") and, for the
+// ones the contact kernels read or write, their member in ContactView
+// (kernels/contact.h). The storage, the allocation
+// (host/core/model/contact.cpp) and the view (host/core/step/contact_stage.h)
+// come from these lists; the candidate lists (slots × capacity) and the
+// per-rod arrays are ContactData's own members.
+#define MANYRODS_CONTACT_VIEW_FIELDS(X)                                                                         \
+  X(T, elem_radius, elem_radius, 1, 0, "[slots] m: the element's contact radius (0: ghost)")                    \
+  X(int, elem_rod, elem_rod, 1, -1, "[slots] the element's rod (−1: ghost)")                                    \
+  X(int, elem_count, elem_count, 1, 0, "[slots] the element's contacts in range (mass splitting)")              \
+  X(int, elem_count_lo, elem_count_lo, 1, 0, "[slots] of them acting on node k (s < 1)")                        \
+  X(int, elem_count_hi, elem_count_hi, 1, 0, "[slots] of them acting on node k+1 (s > 0)")                      \
+  X(T, elem_p0, p0, 3, 0, "[3][slots] N·s: the impulse on node k from element k's contacts")                   \
+  X(T, elem_p1, p1, 3, 0, "[3][slots] N·s: the impulse on node k+1")                                           \
+  X(T, elem_l, l, 3, 0, "[3][slots] N·m·s: the couple impulse on element k (lab)")                              \
+  X(T, work, work, 1, 0, "[slots] J: the contact impulses' work on slot k's node and element, summed")          \
+  X(int, neighbour_count, neighbour_count, 1, 0, "[slots] the element's rod–rod candidates")
+#define MANYRODS_CONTACT_OWN_FIELDS(X)                                                                          \
+  X(T, node_x_ref, 3, 0, "[3][slots] m: node positions at the last rebuild of the candidate lists")             \
+  X(T, elem_skin, 1, 0, "[slots] m: element k's reach s_k at the last build (partners with gap < s_a + s_b are listed)")
+
 // The arrays a user reads and sets by name, one entry each:
 // X(group, field, public name, "shape, unit: meaning"). The Python Batch's
 // views (state read-only, loads writable), the C API's mr_state_view and

@@ -229,20 +229,18 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   c.on = true;
   c.spec = spec;
   const std::size_t n = std::size_t(b.slots());
-  c.elem_radius.resize(n, T(0));
-  c.elem_rod.resize(n, -1);
-  c.elem_count.resize(n, 0);
-  c.elem_count_lo.resize(n, 0);
-  c.elem_count_hi.resize(n, 0);
-  c.work.resize(n, T(0));
-  c.neighbour_count.resize(n, 0);
-  c.elem_skin.resize(n, T(0));
-  for (int d = 0; d < 3; ++d) {
-    c.elem_p0[d].resize(n, T(0));
-    c.elem_p1[d].resize(n, T(0));
-    c.elem_l[d].resize(n, T(0));
-    c.node_x_ref[d].resize(n, T(0));
-  }
+  auto allocate = [n](auto& a, auto fill) {  // (one array, or one per component)
+    if constexpr (requires { a.resize(n, fill); })
+      a.resize(n, fill);
+    else
+      for (auto& component : a) component.resize(n, fill);
+  };
+#define MANYRODS_CONTACT_ALLOCATE_VIEW(type, name, view, components, fill, doc) allocate(c.name, type(fill));
+#define MANYRODS_CONTACT_ALLOCATE_OWN(type, name, components, fill, doc) allocate(c.name, type(fill));
+  MANYRODS_CONTACT_VIEW_FIELDS(MANYRODS_CONTACT_ALLOCATE_VIEW)
+  MANYRODS_CONTACT_OWN_FIELDS(MANYRODS_CONTACT_ALLOCATE_OWN)
+#undef MANYRODS_CONTACT_ALLOCATE_VIEW
+#undef MANYRODS_CONTACT_ALLOCATE_OWN
   if (spec.rod_rod || spec.self) c.neighbours.resize(n * std::size_t(spec.capacity), -1);
   c.rod_mu.assign(4 * std::size_t(b.rod_count()), T(0));
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);

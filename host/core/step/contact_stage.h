@@ -33,6 +33,15 @@
 
 namespace manyrods {
 
+template <class P, class U>
+void contact_view_of(P& dst, Array<U>& a) {
+  dst = a.data();
+}
+template <class P, class U, std::size_t N>
+void contact_view_of(P (&dst)[N], std::array<Array<U>, N>& a) {
+  for (std::size_t d = 0; d < N; ++d) dst[d] = a[d].data();
+}
+
 // Kernel view of the batch's contact data with the colliders placed by `frames`.
 template <class T>
 ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
@@ -40,22 +49,13 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   ContactView<T> v;
   v.colliders = frames;
   v.collider_count = int(c.spec.colliders.size());
-  v.elem_radius = c.elem_radius.data();
-  v.elem_rod = c.elem_rod.data();
+#define MANYRODS_CONTACT_VIEW_OF(type, name, view, n, fill, doc) contact_view_of(v.view, c.name);
+  MANYRODS_CONTACT_VIEW_FIELDS(MANYRODS_CONTACT_VIEW_OF)
+#undef MANYRODS_CONTACT_VIEW_OF
   v.rod_near = c.rod_near.data();
   v.rod_mu = c.rod_mu.data();
   v.rod_mu_own = c.rod_mu_own.data();
-  v.elem_count = c.elem_count.data();
-  v.elem_count_lo = c.elem_count_lo.data();
-  v.elem_count_hi = c.elem_count_hi.data();
-  for (int d = 0; d < 3; ++d) {
-    v.p0[d] = c.elem_p0[d].data();
-    v.p1[d] = c.elem_p1[d].data();
-    v.l[d] = c.elem_l[d].data();
-  }
-  v.work = c.work.data();
   v.neighbours = c.neighbours.data();
-  v.neighbour_count = c.neighbour_count.data();
   v.capacity = c.spec.capacity;
   v.hardness = T(c.spec.hardness);
   v.damping_ratio = T(c.spec.damping_ratio);
