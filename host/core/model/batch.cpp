@@ -9,6 +9,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "host/core/model/view_of.h"
 #include "host/core/step/implicit_plan.h"
 #include "kernels/views.h"
 
@@ -202,14 +203,6 @@ std::size_t field_bytes(const std::array<Array<T>, N>& a) {
   std::size_t b = 0;
   for (const auto& x : a) b += field_bytes(x);
   return b;
-}
-template <class P, class T>
-void view_of(P& dst, const Array<T>& a) {
-  dst = a.size() ? const_cast<T*>(a.data()) : nullptr;
-}
-template <class P, class T, std::size_t N>
-void view_of(P (&dst)[N], const std::array<Array<T>, N>& a) {
-  for (std::size_t i = 0; i < N; ++i) view_of(dst[i], a[i]);
 }
 
 }  // namespace

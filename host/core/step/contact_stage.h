@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "host/core/model/view_of.h"
 #include "host/core/step/fp_env.h"
 #include "host/core/step/schedule.h"
 #include "kernels/contact.h"
@@ -33,15 +34,6 @@
 
 namespace manyrods {
 
-template <class P, class U>
-void contact_view_of(P& dst, Array<U>& a) {
-  dst = a.data();
-}
-template <class P, class U, std::size_t N>
-void contact_view_of(P (&dst)[N], std::array<Array<U>, N>& a) {
-  for (std::size_t d = 0; d < N; ++d) dst[d] = a[d].data();
-}
-
 // Kernel view of the batch's contact data with the colliders placed by `frames`.
 template <class T>
 ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
@@ -49,7 +41,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   ContactView<T> v;
   v.colliders = frames;
   v.collider_count = int(c.spec.colliders.size());
-#define MANYRODS_CONTACT_VIEW_OF(type, name, view, n, fill, doc) contact_view_of(v.view, c.name);
+#define MANYRODS_CONTACT_VIEW_OF(type, name, view, n, fill, doc) view_of(v.view, c.name);
   MANYRODS_CONTACT_VIEW_FIELDS(MANYRODS_CONTACT_VIEW_OF)
 #undef MANYRODS_CONTACT_VIEW_OF
   v.rod_near = c.rod_near.data();

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <vector>
 
+#include "host/core/model/view_of.h"
 #include "host/core/step/launch.h"
 #include "kernels/fluid.h"
 #include "kernels/views.h"
@@ -23,19 +24,11 @@ void fluid_launch(RodBatch<T>& b, T h, const FluidView<T>& f, const Exec& ex, co
   const StateView<T> s = b.state_view();
   launch(r.begin, r.end, ex, [&](int k) MANYRODS_KERNEL_LAMBDA { fluid_node<kF>(k, h, f, m, s); });
 }
-template <class P, class T>
-void fluid_view_of(P& dst, Array<T>& a) {
-  dst = a.data();
-}
-template <class P, class T, std::size_t N>
-void fluid_view_of(P (&dst)[N], std::array<Array<T>, N>& a) {
-  for (std::size_t d = 0; d < N; ++d) dst[d] = a[d].data();
-}
 // The kernels' view of the fluid arrays (MANYRODS_FLUID_FIELDS).
 template <class T>
 FluidView<T> fluid_arrays(FluidData<T>& fd) {
   FluidView<T> f{};
-#define MANYRODS_FLUID_VIEW(name, view, n, doc) fluid_view_of(f.view, fd.name);
+#define MANYRODS_FLUID_VIEW(name, view, n, doc) view_of(f.view, fd.name);
   MANYRODS_FLUID_FIELDS(MANYRODS_FLUID_VIEW)
 #undef MANYRODS_FLUID_VIEW
   return f;
