@@ -945,7 +945,7 @@ TEST(Cli, AKilledRunResumesToTheUninterruptedResultBitForBit) {
     ASSERT_TRUE(xa == xb) << "directors of frame " << f;
     const h5::EnergyRow &ea = a.output().energy[std::size_t(f)], &eb = b.output().energy[std::size_t(f)];
     ASSERT_TRUE(ea.kinetic == eb.kinetic && ea.elastic == eb.elastic && ea.dissipated == eb.dissipated &&
-                ea.dissipation_rate == eb.dissipation_rate)
+                ea.dissipation == eb.dissipation)
         << "energies of frame " << f;
   }
   // a fresh run does not start over the parts of an interrupted one

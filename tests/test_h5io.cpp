@@ -95,7 +95,13 @@ std::vector<std::vector<T>> write_file(const std::string& path) {
   for (int f = 0; f < 3; ++f) {
     frames.push_back(random_values<T>(7 * 3, 10 + f));
     const std::vector<T> dir = random_values<T>(5 * 9, 20 + f);
-    w.append_frame(0.1 * f, frames.back().data(), dir.data(), {1.0 + f, 2.0, 3.0, 0.5 * f, 0.25});
+    h5::EnergyRow e;
+    e.kinetic = 1.0 + f;
+    e.elastic = 2.0;
+    e.potential = 3.0;
+    e.dissipation = 0.25;
+    e.dissipated = 0.5 * f;
+    w.append_frame(0.1 * f, frames.back().data(), dir.data(), e);
   }
   w.write_checkpoint(checkpoint<T>(64));
   w.finish();
@@ -135,6 +141,9 @@ void round_trip() {
   EXPECT_EQ(o.dt, 1e-3);
   for (int f = 0; f < 3; ++f) {
     EXPECT_EQ(o.energy[f].kinetic, 1.0 + f);
+    EXPECT_EQ(o.energy[f].elastic, 2.0);
+    EXPECT_EQ(o.energy[f].potential, 3.0);
+    EXPECT_EQ(o.energy[f].dissipation, 0.25);
     EXPECT_EQ(o.energy[f].dissipated, 0.5 * f);
     std::vector<double> p;
     r.read_positions(f, p);

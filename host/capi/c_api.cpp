@@ -31,7 +31,7 @@
 static_assert(MR_VERSION == MANYRODS_VERSION_NUMBER, "manyrods_c.h: MR_VERSION_* is not the project's version");
 // mr_energies holds every entry of MANYRODS_ENERGY_FIELDS (copied by name in
 // mr_batch_energies) and nothing else.
-#define MANYRODS_ENERGY_COUNT(name, unit, doc) +1
+#define MANYRODS_ENERGY_COUNT(name, dataset, unit, written, doc) +1
 static_assert(sizeof(mr_energies) == sizeof(double) * (0 MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_COUNT)),
               "manyrods_c.h: mr_energies is not the list of include/manyrods/step.h MANYRODS_ENERGY_FIELDS");
 #undef MANYRODS_ENERGY_COUNT
@@ -297,7 +297,7 @@ mr_status mr_batch_energies(const mr_batch* b, int rod, mr_energies* out) {
                "rod " + std::to_string(rod) + " out of range (-1 or 0 … " + std::to_string(b->b.rod_count() - 1) + ")");
   return guard([&] {
     const auto e = b->b.energies(rod);
-#define MANYRODS_ENERGY_COPY(name, unit, doc) out->name = e.name;
+#define MANYRODS_ENERGY_COPY(name, dataset, unit, written, doc) out->name = e.name;
     MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_COPY)
 #undef MANYRODS_ENERGY_COPY
   });

@@ -6,7 +6,9 @@
 //   /element_offsets      [rods + 1]               rod r owns elements [o_r, o_{r+1})
 //   /node_position        [frames, nodes, 3]       m, lab frame (float or double)
 //   /element_directors    [frames, elements, 3, 3] rows d1, d2, d3 (optional)
-//   /energy/{kinetic, elastic, potential, dissipated, dissipation_rate}  [frames]
+//   /energy/{kinetic, elastic, potential, dissipation_rate, dissipated}  [frames]
+//                         (step.h MANYRODS_ENERGY_FIELDS by dataset name, then
+//                         the run's integral of the dissipation rate)
 //   /energy/contact_work, /contact/{count, max_penetration}  [frames]  (scenes with contact)
 //   /rods/{group, width}  [rods]                   group index, section width (m);
 //                         attribute group_names (one per line)
@@ -38,6 +40,7 @@
 #include <vector>
 
 #include "manyrods/fields.h"
+#include "manyrods/step.h"
 
 namespace manyrods::h5 {
 
@@ -62,23 +65,14 @@ struct RunInfo {
   double dt = 0;
 };
 
-// A frame's energies, one /energy dataset each: X(name, unit, meaning).
-// EnergyRow, the writer's and the reader's dataset names, and Python's
-// read_output come from this list.
-#define MANYRODS_FRAME_ENERGIES(X)                                         \
-  X(kinetic, "J", "translational + rotational")                            \
-  X(elastic, "J", "stretch, shear, bend, twist")                           \
-  X(potential, "J", "gravity and dead point forces")                       \
-  X(dissipated, "J", "∫ 2·D_v dt since the run's start (trapezoidal rule)") \
-  X(dissipation_rate, "W", "2·D_v at the frame")
-
-struct EnergyRow {
-#define MANYRODS_FRAME_ENERGY_MEMBER(name, unit, doc) double name = 0;
-  MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_MEMBER)
-#undef MANYRODS_FRAME_ENERGY_MEMBER
-  // with contact (Layout::contact): the contact impulses' work so far (J),
-  // contacts in touch and the deepest overlap (m) in the frame
-  double contact_work = 0, contacts = 0, max_penetration = 0;
+// A frame's energies: the step's Energies (one /energy dataset per entry of
+// step.h MANYRODS_ENERGY_FIELDS, under its dataset name; the contact entries
+// only with Layout::contact), the run's dissipated energy so far and, with
+// contact, the frame's contact record.
+struct EnergyRow : Energies {
+  double dissipated = 0;       // /energy/dissipated: ∫ 2·D_v dt since the run's start (J, trapezoidal rule)
+  double contacts = 0;         // /contact/count: contacts in touch
+  double max_penetration = 0;  // /contact/max_penetration: the deepest overlap (m)
 };
 
 // A named column of values per sweep variation.
@@ -207,6 +201,7 @@ struct Output {
   std::vector<std::string> group_names;
   std::int64_t nodes = 0;
   std::vector<EnergyRow> energy;  // [frames] (contact_work, contacts, max_penetration where the file has them)
+  bool contact = false;           // the file has /contact (a scene with contact)
   std::string scene_text, scene_source;
   double dt = 0;
   bool has_sweep = false;

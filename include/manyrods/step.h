@@ -83,22 +83,27 @@ inline constexpr Terms kAllContactNoKelvinVoigt{true, true, true, true, false, t
 
 // Energies of rod `rod` (or of the whole batch when rod < 0), summed in
 // double in index order (deterministic).
-// The energies of a batch or a rod, one entry each: X(name, unit, meaning).
-// Energies, the Python dict of Batch.energies and the C API's mr_energies
-// (checked member by member when the C API compiles) come from this list.
+// The energies of a batch or a rod, one entry each:
+//   X(name, dataset, unit, written, meaning)
+// name: the member of Energies, the key of Python's Batch.energies() and the
+// member of the C API's mr_energies (checked member by member when the C API
+// compiles); dataset: its /energy dataset in an output file (h5io.h EnergyRow,
+// the writer, the reader and Python's read_output()["energy"]); written:
+// every frame (always) or only in scenes with contact (contact). An entry
+// added here appears in all of them.
 // contact_work: the work done on the rods by contact and friction impulses
 // since set_contact (≤ 0 where they only dissipate; with moving colliders
 // also a source): kinetic + elastic + potential − contact_work + ∫2·D_v dt
 // is constant (docs/contact.md "Energy"); zero without contact Terms.
-#define MANYRODS_ENERGY_FIELDS(X)                                   \
-  X(kinetic, "J", "translational + rotational")                     \
-  X(elastic, "J", "stretch, shear, bend, twist")                    \
-  X(potential, "J", "gravity and dead point forces")                \
-  X(dissipation, "W", "2·D_v: the rate of viscous energy loss")     \
-  X(contact_work, "J", "work of the contact and friction impulses")
+#define MANYRODS_ENERGY_FIELDS(X)                                                            \
+  X(kinetic, "kinetic", "J", always, "translational + rotational")                           \
+  X(elastic, "elastic", "J", always, "stretch, shear, bend, twist")                          \
+  X(potential, "potential", "J", always, "gravity and dead point forces")                    \
+  X(dissipation, "dissipation_rate", "W", always, "2·D_v: the rate of viscous energy loss") \
+  X(contact_work, "contact_work", "J", contact, "work of the contact and friction impulses")
 
 struct Energies {
-#define MANYRODS_ENERGY_MEMBER(name, unit, doc) double name = 0;
+#define MANYRODS_ENERGY_MEMBER(name, dataset, unit, written, doc) double name = 0;
   MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_MEMBER)
 #undef MANYRODS_ENERGY_MEMBER
   double total() const { return kinetic + elastic + potential; }

@@ -160,7 +160,7 @@ void set_frames(PyBatch& pb, const Values& v, std::optional<int> rod) {
 
 nb::dict energies_dict(const manyrods::Energies& e) {
   nb::dict d;
-#define MANYRODS_ENERGY_ITEM(name, unit, doc) d[#name] = e.name;
+#define MANYRODS_ENERGY_ITEM(name, dataset, unit, written, doc) d[#name] = e.name;
   MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_ITEM)
 #undef MANYRODS_ENERGY_ITEM
   d["total"] = e.total();

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "bindings.h"
@@ -176,22 +177,33 @@ void bind_io(nb::module_& m) {
         d["group_names"] = o.group_names;
         d["node_position"] = nb::ndarray<nb::numpy, double>(x->data(), {frames, nodes, 3}, owner);
         // the frames' energies, a list [frames] each, named as in /energy
+        // (step.h MANYRODS_ENERGY_FIELDS by dataset name, then dissipated);
+        // with contact also the frames' contact records
         nb::dict energy;
-#define MANYRODS_FRAME_ENERGY_ITEM(name, unit, doc)                                  \
-  {                                                                                \
-    std::vector<double> v;                                                         \
-    for (const manyrods::h5::EnergyRow& e : o.energy) v.push_back(e.name);         \
-    energy[#name] = v;                                                             \
-  }
-        MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_ITEM)
-#undef MANYRODS_FRAME_ENERGY_ITEM
+        const auto column = [&](double manyrods::h5::EnergyRow::* m) {
+          std::vector<double> v;
+          for (const manyrods::h5::EnergyRow& e : o.energy) v.push_back(e.*m);
+          return v;
+        };
+#define MANYRODS_ENERGY_ITEM(name, dataset, unit, written, doc) \
+  if (o.contact || std::string_view(#written) != "contact") energy[dataset] = column(&manyrods::h5::EnergyRow::name);
+        MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_ITEM)
+#undef MANYRODS_ENERGY_ITEM
+        energy["dissipated"] = column(&manyrods::h5::EnergyRow::dissipated);
+        if (o.contact) {
+          nb::dict contact;
+          contact["count"] = column(&manyrods::h5::EnergyRow::contacts);
+          contact["max_penetration"] = column(&manyrods::h5::EnergyRow::max_penetration);
+          d["contact"] = contact;
+        }
         d["energy"] = energy;
         return d;
       },
       "path"_a,
       "A manyrods output file's frames: time [frames], node_position [frames, nodes, 3] (m), node_offsets "
       "[rods + 1], rod_group, rod_width, group_names, energy (a dict of [frames] lists: kinetic, elastic, "
-      "potential, dissipated (J), dissipation_rate (W))");
+      "potential, dissipated (J), dissipation_rate (W), with contact contact_work (J)) and, with contact, "
+      "contact (a dict of [frames] lists: count, max_penetration (m))");
   m.def("parse_scene",
         [](const std::string& text, const std::string& source) { return manyrods::scene::parse_scene(text, source); },
         "text"_a, "source"_a = "<string>", "Parse and validate a scene from TOML text");

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <sstream>
+#include <string_view>
 #include <utility>
 
 namespace manyrods::h5 {
@@ -255,10 +256,19 @@ std::vector<Column> read_column_group(hid_t f, const std::string& gp, const std:
   return out;
 }
 
-#define MANYRODS_FRAME_ENERGY_NAME(name, unit, doc) #name,
-constexpr const char* kEnergyNames[] = {MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_NAME)};
-#undef MANYRODS_FRAME_ENERGY_NAME
-constexpr int kEnergies = int(std::size(kEnergyNames));
+// The /energy datasets of a frame: step.h's energy list by dataset name, then
+// the run's dissipated energy (EnergyRow::dissipated).
+struct EnergyDataset {
+  const char* name;
+  bool contact_only;
+  double EnergyRow::* member;
+};
+#define MANYRODS_ENERGY_DATASET(name, dataset, unit, written, doc) \
+  EnergyDataset{dataset, std::string_view(#written) == "contact", &EnergyRow::name},
+constexpr EnergyDataset kEnergyDatasets[] = {MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_DATASET){
+    "dissipated", false, &EnergyRow::dissipated}};
+#undef MANYRODS_ENERGY_DATASET
+constexpr int kEnergies = int(std::size(kEnergyDatasets));
 
 }  // namespace
 
@@ -268,14 +278,13 @@ struct Writer::Impl {
   std::string path, tmp;
   Layout layout;
   Id file, time, pos, dir, energy_group, contact_group;
-  Id energy[kEnergies], contact_work, contact_count, contact_depth;
+  Id energy[kEnergies], contact_count, contact_depth;
   std::int64_t frames = 0, nodes = 0, elements = 0;
   bool closed = false;
 
   hid_t real_type() const { return layout.float32 ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE; }
   void close() {
     for (auto& e : energy) e.reset();
-    contact_work.reset();
     contact_count.reset();
     contact_depth.reset();
     contact_group.reset();
@@ -340,12 +349,17 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
   w.energy_group = checked(H5Gcreate2(f, "energy", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
                            "cannot create /energy");
   for (int i = 0; i < kEnergies; ++i)
-    w.energy[i] =
-        create_dataset(w.energy_group.get(), kEnergyNames[i], H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
-  attr_string(w.energy_group.get(), "units", "J (dissipation_rate: W)", w.tmp);
+    if (layout.contact || !kEnergyDatasets[i].contact_only)
+      w.energy[i] = create_dataset(w.energy_group.get(), kEnergyDatasets[i].name, H5T_NATIVE_DOUBLE, {0}, {1024},
+                                   true, w.tmp);
+  {
+    std::string units;
+#define MANYRODS_ENERGY_UNIT(name, dataset, unit, written, doc) units += std::string(dataset) + ": " unit "; ";
+    MANYRODS_ENERGY_FIELDS(MANYRODS_ENERGY_UNIT)
+#undef MANYRODS_ENERGY_UNIT
+    attr_string(w.energy_group.get(), "units", units + "dissipated: J", w.tmp);
+  }
   if (layout.contact) {
-    w.contact_work =
-        create_dataset(w.energy_group.get(), "contact_work", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
     w.contact_group = checked(H5Gcreate2(f, "contact", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
                               "cannot create /contact");
     w.contact_count = create_dataset(w.contact_group.get(), "count", H5T_NATIVE_DOUBLE, {0}, {1024}, true, w.tmp);
@@ -369,13 +383,11 @@ void Writer::append_frame(double t, const void* positions, const void* directors
   if (w.layout.directors)
     append_row(w.dir.get(), w.real_type(), w.frames, {hsize_t(w.elements), 3, 3}, directors, w.tmp,
                fields::public_name::elem_Q);
-#define MANYRODS_FRAME_ENERGY_VALUE(name, unit, doc) e.name,
-  const double v[kEnergies] = {MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_VALUE)};
-#undef MANYRODS_FRAME_ENERGY_VALUE
   for (int i = 0; i < kEnergies; ++i)
-    append_row(w.energy[i].get(), H5T_NATIVE_DOUBLE, w.frames, {}, &v[i], w.tmp, kEnergyNames[i]);
+    if (w.energy[i].ok())
+      append_row(w.energy[i].get(), H5T_NATIVE_DOUBLE, w.frames, {}, &(e.*kEnergyDatasets[i].member), w.tmp,
+                 kEnergyDatasets[i].name);
   if (w.layout.contact) {
-    append_row(w.contact_work.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &e.contact_work, w.tmp, "contact_work");
     append_row(w.contact_count.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &e.contacts, w.tmp, "contact/count");
     append_row(w.contact_depth.get(), H5T_NATIVE_DOUBLE, w.frames, {}, &e.max_penetration, w.tmp,
                "contact/max_penetration");
@@ -798,30 +810,23 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
     o.scene_text = read_attr_string(sg.get(), "text", path, "/scene.");
     o.scene_source = read_attr_string(sg.get(), "source", path, "/scene.");
   }
-  std::vector<std::vector<double>> e(kEnergies);
-  for (int i = 0; i < kEnergies; ++i) {
-    e[i] =
-        read_vector<double>(f, (std::string("energy/") + kEnergyNames[i]).c_str(), H5T_NATIVE_DOUBLE, path);
-    if (std::int64_t(e[i].size()) != r.frames)
-      fail(path, std::string("/energy/") + kEnergyNames[i] + " has " + std::to_string(e[i].size()) +
-                     " entries, /time " + std::to_string(r.frames));
+  o.energy.resize(std::size_t(r.frames));
+  const bool contact = o.contact = H5Lexists(f, "contact", H5P_DEFAULT) > 0;
+  for (const EnergyDataset& d : kEnergyDatasets) {
+    if (d.contact_only && !contact) continue;
+    const std::string name = std::string("energy/") + d.name;
+    const std::vector<double> v = read_vector<double>(f, name.c_str(), H5T_NATIVE_DOUBLE, path);
+    if (std::int64_t(v.size()) != r.frames)
+      fail(path, "/" + name + " has " + std::to_string(v.size()) + " entries, /time " + std::to_string(r.frames));
+    for (std::int64_t k = 0; k < r.frames; ++k) o.energy[std::size_t(k)].*d.member = v[std::size_t(k)];
   }
-  for (std::int64_t k = 0; k < r.frames; ++k) {
-    EnergyRow row;
-    int i = 0;
-#define MANYRODS_FRAME_ENERGY_READ(name, unit, doc) row.name = e[std::size_t(i++)][std::size_t(k)];
-    MANYRODS_FRAME_ENERGIES(MANYRODS_FRAME_ENERGY_READ)
-#undef MANYRODS_FRAME_ENERGY_READ
-    o.energy.push_back(row);
-  }
-  if (H5Lexists(f, "contact", H5P_DEFAULT) > 0) {
-    const std::vector<double> w = read_vector<double>(f, "energy/contact_work", H5T_NATIVE_DOUBLE, path);
+  if (contact) {
     const std::vector<double> n = read_vector<double>(f, "contact/count", H5T_NATIVE_DOUBLE, path);
     const std::vector<double> d = read_vector<double>(f, "contact/max_penetration", H5T_NATIVE_DOUBLE, path);
-    if (std::int64_t(w.size()) != r.frames || std::int64_t(n.size()) != r.frames || std::int64_t(d.size()) != r.frames)
-      fail(path, "/contact and /energy/contact_work must have one entry per frame (" + std::to_string(r.frames) + ")");
+    if (std::int64_t(n.size()) != r.frames || std::int64_t(d.size()) != r.frames)
+      fail(path, "/contact/count and /contact/max_penetration must have one entry per frame (" +
+                     std::to_string(r.frames) + ")");
     for (std::int64_t k = 0; k < r.frames; ++k) {
-      o.energy[std::size_t(k)].contact_work = w[std::size_t(k)];
       o.energy[std::size_t(k)].contacts = n[std::size_t(k)];
       o.energy[std::size_t(k)].max_penetration = d[std::size_t(k)];
     }

@@ -217,11 +217,7 @@ void AnyBatch::save(const std::string& path) const {
     gather_directors(b, q);
     const Energies e = scene_energies(b, choice_);
     h5::EnergyRow row;
-    row.kinetic = e.kinetic;
-    row.elastic = e.elastic;
-    row.potential = e.potential;
-    row.dissipation_rate = e.dissipation;
-    row.contact_work = e.contact_work;
+    static_cast<Energies&>(row) = e;
     w.append_frame(b.state.time, x.data(), q.data(), row);
     h5::Checkpoint c;
     detail::save_state(b, c);

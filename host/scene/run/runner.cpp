@@ -352,10 +352,11 @@ class SceneRun {
   void write_frame(h5::Writer& w, const Energies& e) {
     gather_positions(b_, pos_);
     if (s_.sim.output_directors) gather_directors(b_, dir_);
-    h5::EnergyRow row{e.kinetic, e.elastic, e.potential, dissipated_, e.dissipation};
+    h5::EnergyRow row;
+    static_cast<Energies&>(row) = e;
+    row.dissipated = dissipated_;
     if (s_.has_contact) {
       const ContactStats cs = contact_stats(b_);
-      row.contact_work = e.contact_work;
       row.contacts = double(cs.contacts);
       row.max_penetration = cs.max_penetration;
       res_.max_contacts = std::max(res_.max_contacts, cs.contacts);
