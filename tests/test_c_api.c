@@ -284,6 +284,20 @@ static void test_rods_in_c(void) {
   CHECK(mr_batch_create(bad, 2, &s, &b) == MR_ERROR_INPUT && strstr(mr_last_error(), "held tip") != NULL,
         "a driver on a free tip: %s", mr_last_error());
   CHECK(mr_batch_create(rods, 0, &s, &b) == MR_ERROR_ARGUMENT, "no rods");
+  /* a first normal along the rod: the message names it, not a frame error */
+  bad[0] = rods[0];
+  bad[0].first_normal[0] = 1, bad[0].first_normal[2] = 0;
+  CHECK(mr_batch_create(bad, 2, &s, &b) == MR_ERROR_INPUT && strstr(mr_last_error(), "rod 0") != NULL &&
+            strstr(mr_last_error(), "first_normal") != NULL && strstr(mr_last_error(), "parallel") != NULL,
+        "a normal along the rod: %s", mr_last_error());
+  /* the default first normal (0, 0, 0): one is chosen, for a rod along x too */
+  bad[0] = rods[0];
+  mr_default_rod_desc(&bad[0]);
+  bad[0].elements = N;
+  bad[0].nodes = line;
+  OK(mr_batch_create(bad, 1, &s, &b));
+  mr_batch_destroy(b);
+  b = NULL;
 
   OK(mr_batch_create(rods, 2, &s, &b));
   CHECK(mr_batch_node_count(b) == 2 * (N + 1) && mr_batch_driver_count(b) == 1, "nodes and drivers");
@@ -324,6 +338,21 @@ static void test_rods_in_c(void) {
   const double* tip = xyz + 3 * (2 * N + 1);
   CHECK(fabs(tip[0] - 0.3) < 1e-12 && fabs(tip[1] - 0.25) < 1e-12 && fabs(tip[2]) < 1e-12,
         "the driven tip at (%.15g, %.15g, %.15g)", tip[0], tip[1], tip[2]);
+  /* then a quarter turn about z about the tip's own body point (0.3, 0.2, 0),
+   * keeping the 5 cm: the pivot's image stays at (0.3, 0.25, 0) during the
+   * move, so the pinned tip does not leave it */
+  const double pivot[3] = {0.3, 0.2, 0};
+  double rz[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+  memcpy(p.rotation, rz, sizeof rz);
+  const double t1 = mr_batch_time(b);
+  OK(mr_batch_set_driver_pose_about(b, c, &p, pivot, t1 + 0.05));
+  for (int k = 0; k < 5; ++k) {
+    OK(mr_batch_step(b, 0.05 / steps, steps / 5));
+    OK(mr_batch_copy_positions_f64(b, xyz, 2 * (N + 1)));
+    CHECK(fabs(tip[0] - 0.3) < 1e-12 && fabs(tip[1] - 0.25) < 1e-12 && fabs(tip[2]) < 1e-12,
+          "the tip at the pivot during the turn at (%.15g, %.15g, %.15g)", tip[0], tip[1], tip[2]);
+  }
+  CHECK(mr_batch_set_driver_pose_about(b, c, &p, NULL, t1 + 1) == MR_ERROR_ARGUMENT, "a NULL pivot");
 
   /* results do not depend on the thread count */
   mr_batch *one = NULL, *two = NULL;
@@ -335,8 +364,19 @@ static void test_rods_in_c(void) {
   OK(mr_batch_step(two, h, 300));
   CHECK(mr_batch_state_hash(one) == mr_batch_state_hash(two), "1 and 2 threads agree");
 
-  /* a step far above the stable one: a non-finite state, reported */
-  mr_status st = mr_batch_step(one, 200 * mr_batch_stable_dt(one), 2000);
+  /* a step above the stable one is refused before it runs, as `manyrods
+   * run` refuses it: the message gives the limit and the override; the
+   * state is untouched */
+  const uint64_t before = mr_batch_state_hash(one);
+  mr_status st = mr_batch_step(one, 10 * mr_batch_stable_dt(one), 10);
+  CHECK(st == MR_ERROR_INPUT && strstr(mr_last_error(), "stable limit") != NULL &&
+            strstr(mr_last_error(), "mr_batch_set_force_dt") != NULL,
+        "status %d: %s", (int)st, mr_last_error());
+  CHECK(mr_batch_state_hash(one) == before && mr_batch_steps(one) == 300, "a refused step leaves the state");
+  CHECK(mr_batch_set_force_dt(one, 2) == MR_ERROR_ARGUMENT, "force_dt is 0 or 1");
+  /* forced far above the stable step: a non-finite state, reported */
+  OK(mr_batch_set_force_dt(one, 1));
+  st = mr_batch_step(one, 200 * mr_batch_stable_dt(one), 2000);
   CHECK(st == MR_ERROR_NON_FINITE && strlen(mr_last_error()) > 0, "status %d", (int)st);
   CHECK(mr_batch_step(one, -1.0, 1) == MR_ERROR_ARGUMENT, "a negative dt");
   mr_batch_destroy(one);

@@ -83,6 +83,8 @@ TEST(Curves, HelixBecomesARodWithTheHelixRestCurvature) {
   write(dir + "helix.usda", usda({helix(a, c, 2, 2000)}, 2e-3));
   const Scene s = parse_scene(scene_with("from_curves = { file = \"helix.usda\", elements = 64 }\n"), dir + "s.toml");
   ASSERT_EQ(s.rods.size(), 1u);
+  // the curves file is one of the scene's inputs (no command writes over it)
+  EXPECT_EQ(s.inputs, std::vector<std::string>{dir + "helix.usda"});
   const RodSpec& r = s.rods[0];
   ASSERT_EQ(r.elements(), 64);
   EXPECT_NEAR(r.section.a, 1e-3, 1e-15);  // widths are diameters (the mean of 2001 of them)

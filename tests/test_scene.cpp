@@ -585,6 +585,13 @@ TEST(Scene, MeshColliderIsASignedDistanceGridOfTheObj) {
   const auto g = load_mesh_grid(std::string(MANYRODS_TEST_DATA) + "/head.obj", 64);
   ASSERT_TRUE(g);
   EXPECT_EQ(g->triangles.size(), 3u * 320u);
+  {  // the OBJ is one of the scene's inputs (no command writes over it)
+    const std::string obj = std::string(MANYRODS_TEST_DATA) + "/head.obj";
+    const Scene s = parse_scene(scene_text() + "\n[[colliders]]\nkind = \"mesh\"\nfile = \"" + obj +
+                                    "\"\nresolution = 16\n",
+                                "mesh.toml");
+    EXPECT_EQ(s.inputs, std::vector<std::string>{obj});
+  }
   // an ellipsoid with semi-axes 0.075, 0.09, 0.1 m, faceted (an icosphere
   // subdivided twice: its flat faces lie inside the ellipsoid by up to
   // ~2 % of the radius): φ at the centre ≈ −(smallest semi-axis), outside

@@ -38,8 +38,10 @@
 #include <mpi.h>
 #endif
 #include "manyrods/usd.h"
+#include "plot.h"
 
 using namespace manyrods;
+using manyrods::cli::plot;  // `manyrods plot` (tools/plot.cpp)
 using namespace manyrods::scene;
 namespace fs = std::filesystem;
 
@@ -87,253 +89,13 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
-// ---- plot: gnuplot PNGs --------------------------------------------------------
-
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
-  return q + "'";
-}
-
-// Tip trajectories of up to 6 rods spread over the batch.
-std::vector<int> shown_rods(const h5::Output& o) {
-  const int rods = int(o.node_offsets.size()) - 1;
-  std::vector<int> shown;
-  const int nshow = std::min(rods, 6);
-  for (int i = 0; i < nshow; ++i)
-    shown.push_back(nshow == 1 ? 0 : int(std::llround(double(i) * (rods - 1) / (nshow - 1))));
-  return shown;
-}
-
-// The data files: tips.dat (time, then x y z of each shown tip) and
-// energy.dat (time, kinetic, elastic, potential, mechanical, dissipated, sum).
-void write_plot_data(const h5::Reader& rd, const std::vector<int>& shown, const std::string& tips,
-                     const std::string& energy) {
-  const h5::Output& o = rd.output();
-  std::ofstream t(tips);
-  t.precision(10);
-  std::vector<double> pos;
-  for (std::int64_t f = 0; f < rd.frames(); ++f) {
-    rd.read_positions(f, pos);
-    t << o.time[f];
-    for (int r : shown) {
-      const std::int64_t j = o.node_offsets[r + 1] - 1;
-      t << ' ' << pos[3 * j] << ' ' << pos[3 * j + 1] << ' ' << pos[3 * j + 2];
-    }
-    t << '\n';
-  }
-  std::ofstream e(energy);
-  e.precision(12);
-  for (std::int64_t f = 0; f < rd.frames(); ++f) {
-    const h5::EnergyRow& r = o.energy[f];
-    const double mech = r.kinetic + r.elastic + r.potential;
-    e << o.time[f] << ' ' << r.kinetic << ' ' << r.elastic << ' ' << r.potential << ' ' << mech << ' '
-      << r.dissipated << ' ' << mech + r.dissipated << '\n';
-  }
-}
-
-// A parameter's short name: the last part of its key path ("tau_extension"
-// for rods.0.damping.tau_extension; "initial_tip_force.0" keeps its index).
-std::string short_key(const std::string& key) {
-  std::size_t dot = key.rfind('.');
-  if (dot != std::string::npos && dot + 1 < key.size() && std::isdigit(static_cast<unsigned char>(key[dot + 1])))
-    dot = key.rfind('.', dot - 1);
-  return dot == std::string::npos ? key : key.substr(dot + 1);
-}
-
-// The legend of rod r: "rod r", or in a sweep its variation's parameter values.
-std::string rod_label(const h5::Output& o, int r) {
-  if (!o.has_sweep || o.sweep_first_rod.empty()) return "rod " + std::to_string(r);
-  std::size_t v = 0;
-  while (v + 1 < o.sweep_first_rod.size() && o.sweep_first_rod[v + 1] <= r) ++v;
-  std::ostringstream l;
-  l.precision(4);
-  l << "variation " << v << ":";
-  for (const h5::Column& c : o.sweep_parameters) l << ' ' << short_key(c.name) << '=' << c.values[v];
-  return l.str();
-}
-
-// What a sweep varied, for titles: "tau_extension, youngs_modulus (64 variations)".
-std::string varied(const h5::Output& o) {
-  std::string t;
-  for (const h5::Column& c : o.sweep_parameters) t += (t.empty() ? "" : ", ") + short_key(c.name);
-  return t + " (" + std::to_string(o.sweep_parameters[0].values.size()) + " variations)";
-}
-
-// noenhanced: names such as damping_ratio are printed as they are, not as
-// gnuplot's subscripts
-void tips_and_energy_script(std::ostream& gp, const h5::Output& o, const std::string& dir,
-                            const std::vector<int>& shown, const std::string& tips, const std::string& energy) {
-  gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\nset key outside right\n";
-  const std::string what = o.has_sweep && !o.sweep_parameters.empty() ? ": sweep of " + varied(o) : "";
-  gp << "set output " << quote(dir + "/tips.png") << "\nset multiplot layout 3,1 title " << quote("tip trajectories" + what)
-     << "\n";
-  const char* axis[3] = {"x", "y", "z"};
-  for (int a = 0; a < 3; ++a) {
-    gp << "set xlabel 'time (s)'\nset ylabel 'tip " << axis[a] << " (m)'\nplot ";
-    for (std::size_t i = 0; i < shown.size(); ++i)
-      gp << (i ? ", " : "") << quote(tips) << " using 1:" << 2 + 3 * i + a << " with lines title "
-         << quote(rod_label(o, shown[i]));
-    gp << "\n";
-  }
-  gp << "unset multiplot\n";
-  gp << "set output " << quote(dir + "/energy.png")
-     << "\nset title " << quote("energy budget (dissipated = integral of 2 D_v dt)" + what) << "\n"
-     << "set xlabel 'time (s)'\nset ylabel 'energy (J)'\nplot " << quote(energy)
-     << " using 1:2 with lines title 'kinetic', '' using 1:3 with lines title 'elastic', '' using 1:4 with "
-        "lines title "
-        "'potential', '' using 1:5 with lines lw 2 title 'mechanical', '' using 1:6 with lines title "
-        "'dissipated (KV)', "
-        "'' using 1:7 with lines dt 2 lw 2 title 'mechanical + dissipated'\n";
-}
-
-// A sweep's plots (appended to `made`): each summary column against the
-// first varied parameter (points; the fitted period and damping ratio with
-// their standard errors as error bars), its histogram, and, for 16
-// variations or more, the running mean with its 95 % interval against the
-// number of variations (in the order they were drawn: the convergence of
-// a sampled design). Data in sweep.dat (first parameter, then the columns).
-void sweep_script(std::ostream& gp, const h5::Output& o, const std::string& dir, std::vector<std::string>& made) {
-  const std::string sweep = dir + "/sweep.dat";
-  std::ofstream s(sweep);
-  s.precision(12);
-  const std::size_t n = o.sweep_parameters[0].values.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    s << i << ' ' << o.sweep_parameters[0].values[i];
-    for (const h5::Column& c : o.sweep_summary) s << ' ' << (std::isfinite(c.values[i]) ? c.values[i] : NAN);
-    s << '\n';
-  }
-  const std::string x = o.sweep_parameters[0].name, what = "sweep of " + varied(o);
-  auto column = [&](const std::string& name) -> int {  // gnuplot column of a summary column, 0 if none
-    for (std::size_t c = 0; c < o.sweep_summary.size(); ++c)
-      if (o.sweep_summary[c].name == name) return int(c) + 3;
-    return 0;
-  };
-  gp << "set key inside top right\n";
-  for (std::size_t c = 0; c < o.sweep_summary.size(); ++c) {
-    const std::string& y = o.sweep_summary[c].name;
-    if (is_sweep_error_column(y)) continue;  // the error bars of its column's plot
-    // a column without a finite value (a period the runs were too short
-    // for, a crossing never reached) has nothing to plot
-    if (std::none_of(o.sweep_summary[c].values.begin(), o.sweep_summary[c].values.end(),
-                     [](double v) { return std::isfinite(v); })) {
-      std::fprintf(stderr, "manyrods plot: %s: no finite value in any variation, not plotted\n", y.c_str());
-      continue;
-    }
-    const int col = int(c) + 3;
-    const std::string& error = sweep_error_column(y);
-    const int err = error.empty() ? 0 : column(error);
-    const std::string png = dir + "/sweep_" + y + ".png";
-    gp << "set output " << quote(png) << "\nset title " << quote(y + " against " + short_key(x) + " — " + what)
-       << "\nset xlabel " << quote(x) << "\nset ylabel " << quote(y) << "\nplot " << quote(sweep) << " using 2:"
-       << col;
-    if (err)
-      gp << ":" << err << " with yerrorbars pt 7 ps 0.6 title " << quote(y + " ± standard error of the fit") << "\n";
-    else
-      gp << " with points pt 7 ps 0.6 title " << quote(y) << "\n";
-    made.push_back(png);
-    // histogram: 20 bins over the finite values' range
-    const auto& v = o.sweep_summary[c].values;
-    double lo = HUGE_VAL, hi = -HUGE_VAL;
-    for (double a : v)
-      if (std::isfinite(a)) lo = std::min(lo, a), hi = std::max(hi, a);
-    if (!(hi > lo)) continue;
-    const double w = (hi - lo) / 20;
-    std::vector<int> count(20, 0);
-    for (double a : v)
-      if (std::isfinite(a)) ++count[std::min(19, int((a - lo) / w))];
-    const std::string hist_dat = dir + "/sweep_" + y + "_histogram.dat", hist = dir + "/sweep_" + y + "_histogram.png";
-    std::ofstream hd(hist_dat);
-    hd.precision(12);
-    for (int b = 0; b < 20; ++b) hd << lo + (b + 0.5) * w << ' ' << count[std::size_t(b)] << '\n';
-    gp << "set output " << quote(hist) << "\nset title " << quote("histogram of " + y + " — " + what)
-       << "\nset xlabel " << quote(y) << "\nset ylabel 'variations'\nset style fill solid 0.5\nset boxwidth " << w
-       << "\nplot " << quote(hist_dat) << " using 1:2 with boxes title "
-       << quote(y + " (" + std::to_string(n) + " variations, NaN left out)") << "\nunset style\nset boxwidth\n";
-    made.push_back(hist);
-    if (n < 16) continue;
-    // running mean and its 95 % interval (CLT) over the first k variations
-    const std::string conv_dat = dir + "/sweep_" + y + "_convergence.dat";
-    std::ofstream cd(conv_dat);
-    cd.precision(12);
-    double sum = 0, sum2 = 0;
-    int k = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!std::isfinite(v[i])) continue;
-      ++k, sum += v[i], sum2 += v[i] * v[i];
-      if (k < 2) continue;
-      const double mean = sum / k, sd = std::sqrt(std::max(0.0, (sum2 - k * mean * mean) / (k - 1)));
-      cd << i + 1 << ' ' << mean << ' ' << mean - 1.959964 * sd / std::sqrt(k) << ' '
-         << mean + 1.959964 * sd / std::sqrt(k) << '\n';
-    }
-    const std::string conv = dir + "/sweep_" + y + "_convergence.png";
-    gp << "set output " << quote(conv) << "\nset title " << quote("running mean of " + y + " — " + what)
-       << "\nset xlabel 'variations'\nset ylabel " << quote(y) << "\nset logscale x\nplot " << quote(conv_dat)
-       << " using 1:3:4 with filledcurves fs transparent solid 0.25 title '95 % interval of the mean (CLT)', '' "
-          "using 1:2 with lines lw 2 title 'mean'\nunset logscale x\n";
-    made.push_back(conv);
-  }
-}
-
-// Writes the script to dir/plots.gp and runs gnuplot on it.
-int run_gnuplot(const std::string& dir, const std::string& script_text, const std::vector<std::string>& made) {
-  const std::string script = dir + "/plots.gp";
-  std::ofstream(script) << script_text;
-  const std::string log = dir + "/gnuplot.log";
-  const int rc = std::system(("gnuplot " + quote(script) + " 2> " + quote(log)).c_str());
-  if (rc != 0) {
-    std::fprintf(stderr, "manyrods plot: gnuplot failed (exit %d); is gnuplot installed? script: %s, messages: %s\n",
-                 rc, script.c_str(), log.c_str());
-    return 1;
-  }
-  for (const std::string& m : made) std::fprintf(stderr, "manyrods: wrote %s\n", m.c_str());
-  return 0;
-}
-
-int plot(const std::string& in, std::string dir) {
-  if (dir.empty()) dir = fs::path(in).replace_extension("").string() + "_plots";
-  auto make_dir = [&] {
-    std::error_code ec;
-    fs::create_directories(dir, ec);
-    if (ec || !fs::is_directory(dir) || access(dir.c_str(), W_OK) != 0) {
-      std::fprintf(stderr, "manyrods plot: --out-dir %s: cannot create or write this directory (%s)\n", dir.c_str(),
-                   ec ? ec.message().c_str() : "not a writable directory");
-      return false;
-    }
-    return true;
-  };
-  if (h5::is_sweep_index(in)) {  // a chunked sweep: its sweep plots (the frames stay in the chunks)
-    const h5::SweepIndex x = h5::read_sweep_index(in);
-    h5::Output o;
-    o.has_sweep = true;
-    o.sweep_parameters = x.parameters;
-    o.sweep_summary = x.summary;
-    o.scene_text = x.scene_text;
-    o.scene_source = x.scene_source;
-    if (!make_dir()) return 2;
-    std::ostringstream gp;
-    gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\n";
-    std::vector<std::string> made;
-    if (!o.sweep_parameters.empty()) sweep_script(gp, o, dir, made);
-    return run_gnuplot(dir, gp.str(), made);
-  }
-  const h5::Reader rd(in);
-  const h5::Output& o = rd.output();
-  if (!make_dir()) return 2;
-  std::ostringstream gp;
-  std::vector<std::string> made;
-  if (rd.frames() > 0) {
-    const std::vector<int> shown = shown_rods(o);
-    const std::string tips = dir + "/tips.dat", energy = dir + "/energy.dat";
-    write_plot_data(rd, shown, tips, energy);
-    tips_and_energy_script(gp, o, dir, shown, tips, energy);
-    made = {dir + "/tips.png", dir + "/energy.png"};
-  } else {  // (a sweep with --frames none)
-    std::fprintf(stderr, "manyrods plot: %s has no frames: no tips or energies to plot\n", in.c_str());
-    gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\n";
-  }
-  if (o.has_sweep && !o.sweep_parameters.empty()) sweep_script(gp, o, dir, made);
-  return run_gnuplot(dir, gp.str(), made);
+// A sweep's CSVs (csv, its stem's _statistics.csv and _sensitivity.csv):
+// .csv, and none of them the HDF5 output or an input (checked before any work).
+void check_csvs(const std::string& csv, const std::string& output, std::vector<std::string> inputs) {
+  check_extension(csv, {".csv"}, "--csv", "the sweep summary (CSV)");
+  inputs.push_back(output);
+  const std::string stem = fs::path(csv).replace_extension("").string();
+  for (const std::string& f : {csv, stem + "_statistics.csv", stem + "_sensitivity.csv"}) check_not_input(f, inputs, "--csv");
 }
 
 // The CSVs of a sweep: the summary (csv), its statistics and, for a
@@ -356,6 +118,7 @@ void write_sweep_csvs(const std::string& csv, const SweepRun& sr, const std::vec
 // output with .csv).
 int run_sweep(const Sweep& sw, RunOptions opt, std::string csv, const h5::Checkpoint* restart) {
   if (csv.empty()) csv = fs::path(opt.output).replace_extension(".csv").string();
+  check_csvs(csv, opt.output, sw.scene.inputs);
   std::fprintf(stderr, "manyrods sweep: %zu variations, %zu rods in one batch%s\n", sw.points.size(),
                sw.scene.rods.size(), restart ? " (continued)" : "");
   const std::string output = opt.output;
@@ -532,6 +295,7 @@ int command_run(const Options& o) {
                  o.restart.c_str(), o.output.c_str());
     return 2;
   }
+  if (!o.restart.empty()) check_h5_output(o.output, {o.restart}, "-o");
   if (!o.restart.empty() && o.resume) {
     std::fprintf(stderr, "manyrods run: --resume continues a scene's run into its output (give the scene, not --restart)\n");
     return 2;
@@ -629,6 +393,8 @@ struct MpiSession {
 // Ctrl-C, the same command continues it.
 int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& design, const RunOptions& opt) {
   if (o.force_dt) throw SceneError("--force-dt does not apply to a chunked sweep (--chunk)");
+  check_csvs(o.csv.empty() ? fs::path(opt.output).replace_extension(".csv").string() : o.csv, opt.output,
+             {o.scene_path});
   static MpiSession mpi;  // (finalized at exit)
   const Shards& sh = mpi.shards;
   std::vector<std::string> names;
@@ -729,6 +495,10 @@ int command_bench(const Options& o) {
   opt.warmup = o.bench_warmup;
   opt.stiff_solve_in_double = !o.stiff_solve_float;
   if (!o.precision.empty()) opt.precision = o.precision == "float" ? Precision::float32 : Precision::float64;
+  if (!o.json.empty()) {
+    check_extension(o.json, {".json"}, "--json", "Google Benchmark's JSON");
+    check_not_input(o.json, s.inputs, "--json");
+  }
   const BenchResult r = bench_scene(s, opt);
   std::fputs(bench_report(r).c_str(), stdout);
   if (!o.json.empty()) {

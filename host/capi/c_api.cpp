@@ -51,6 +51,7 @@ static_assert(sizeof(mr_loads_view) ==
 struct mr_batch {
   manyrods::scene::AnyBatch b;
   int threads = 1;
+  bool force_dt = false;
 };
 
 namespace {
@@ -136,7 +137,11 @@ RodSpec rod_of(const mr_rod_desc& d, std::size_t i) {
       for (int c = 0; c < 9; ++c) q[k][c] = d.frames[9 * k + c];
   } else {
     const Vec3 n{d.first_normal[0], d.first_normal[1], d.first_normal[2]};
-    q = RodSpec::parallel_transport_frames(x, n);
+    try {
+      q = RodSpec::parallel_transport_frames(x, n);
+    } catch (const InputError& e) {
+      throw InputError(at + e.what());
+    }
   }
   RodSpec r = RodSpec::polyline(std::move(x), std::move(q));
   r.name = "rod " + std::to_string(i);
@@ -218,7 +223,6 @@ void mr_default_rod_desc(mr_rod_desc* rod) {
   rod->elements = 10;
   rod->nodes = nullptr;
   rod->frames = nullptr;
-  rod->first_normal[0] = 1;
   rod->shape = MR_CIRCLE;
   rod->section_a = 0.01;
   rod->section_b = 0.01;
@@ -262,7 +266,14 @@ mr_status mr_batch_step(mr_batch* b, double dt, int count) {
   MR_CHECK_ARG(b, "a NULL batch");
   MR_CHECK_ARG(dt > 0 && std::isfinite(dt), "dt must be > 0 and finite (got " + std::to_string(dt) + ")");
   MR_CHECK_ARG(count >= 0, "count must be >= 0 (got " + std::to_string(count) + ")");
-  return guard([&] { b->b.step(dt, count, b->threads); });
+  return guard([&] { b->b.step(dt, count, b->threads, {}, 0.1, b->force_dt); });
+}
+
+mr_status mr_batch_set_force_dt(mr_batch* b, int force) {
+  MR_CHECK_ARG(b, "a NULL batch");
+  MR_CHECK_ARG(force == 0 || force == 1, "force must be 0 or 1 (got " + std::to_string(force) + ")");
+  b->force_dt = force == 1;
+  return MR_OK;
 }
 
 double mr_batch_dt(const mr_batch* b) {
@@ -385,17 +396,27 @@ mr_status mr_batch_find_driver(const mr_batch* b, const char* name, size_t* driv
   return guard([&] { *driver = std::size_t(b->b.find_driver(name)); });
 }
 
-mr_status mr_batch_set_driver_pose(mr_batch* b, size_t driver, const mr_pose* pose, double time) {
-  MR_CHECK_ARG(b && pose, "a NULL argument");
+mr_status mr_batch_set_driver_pose_about(mr_batch* b, size_t driver, const mr_pose* pose, const double pivot[3],
+                                         double time) {
+  MR_CHECK_ARG(b && pose && pivot, "a NULL argument");
   MR_CHECK_ARG(driver < std::size_t(b->b.driver_count()), "driver " + std::to_string(driver) +
                                                               " out of range (the batch has " +
                                                               std::to_string(b->b.driver_count()) + " drivers)");
   return guard([&] {
     manyrods::Pose p;
     std::copy(pose->rotation, pose->rotation + 9, p.rotation.begin());
-    std::copy(pose->translation, pose->translation + 3, p.translation.begin());
-    b->b.set_driver_pose(int(driver), p, time);
+    const Vec3 c{pivot[0], pivot[1], pivot[2]};
+    // x ↦ R (x − c) + c + t = R x + (c − R c + t): the library's Pose
+    for (int i = 0; i < 3; ++i)
+      p.translation[i] = pose->translation[i] + c[i] -
+                         (p.rotation[3 * i] * c[0] + p.rotation[3 * i + 1] * c[1] + p.rotation[3 * i + 2] * c[2]);
+    b->b.set_driver_pose(int(driver), p, time, c);
   });
+}
+
+mr_status mr_batch_set_driver_pose(mr_batch* b, size_t driver, const mr_pose* pose, double time) {
+  const double origin[3] = {0, 0, 0};
+  return mr_batch_set_driver_pose_about(b, driver, pose, origin, time);
 }
 
 }  // extern "C"

@@ -65,9 +65,15 @@ class AnyBatch {
   // starts at 64 and doubles while a chunk takes under `check_s` seconds of
   // wall time, so the question comes about every check_s whatever the batch
   // size. Returns the steps done. InputError for dt ≤ 0 or not finite,
-  // count < 0, threads < 1.
+  // count < 0, threads < 1, and for a dt above the stable limit (check_dt)
+  // unless force_dt or the scene's simulation.force_dt.
   std::int64_t step(double dt, std::int64_t count, int threads = 1, const std::function<bool()>& keep_going = {},
-                    double check_s = 0.1);
+                    double check_s = 0.1, bool force_dt = false);
+  // The step-size guard of `manyrods run` (docs/scenes.md "The step-size
+  // guard"): InputError when dt exceeds stable_dt().elastic, with the limit
+  // and the safe value (0.9 × the limit). The limit is computed at the
+  // first check and again only when a longer step comes.
+  void check_dt(double dt) const;
   Energies energies(int rod = -1) const;
   StableDt stable_dt() const;
   // Static equilibrium from the current state (double batches; InputError for float).
@@ -92,7 +98,9 @@ class AnyBatch {
   int driver_count() const { return int(host_motions_.size()); }
   const std::string& driver_name(int driver) const { return host_motions_.at(std::size_t(driver))->name(); }
   int find_driver(const std::string& name) const;
-  void set_driver_pose(int driver, const Pose& pose, double until);
+  // pivot: the body point whose image moves on a straight line during the
+  // move (HostMotion::set_target; the pose itself already says where it ends).
+  void set_driver_pose(int driver, const Pose& pose, double until, const Vec3& pivot = {0, 0, 0});
 
   // A manyrods output file (include/manyrods/h5io.h) with this state as its
   // one frame and its checkpoint (a scene's batch: `manyrods run --restart`
@@ -106,6 +114,7 @@ class AnyBatch {
   std::shared_ptr<const Scene> scene_;
   StepChoice choice_;
   bool from_file_ = false;
+  mutable double checked_dt_ = 0;  // the longest step check_dt has passed
   std::vector<std::shared_ptr<HostMotion>> host_motions_;  // this batch's own (not the Scene's)
 };
 

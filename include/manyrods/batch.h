@@ -106,9 +106,14 @@ struct RodSpec {
   // A rod along a polyline with the given frames.
   static RodSpec polyline(std::vector<Vec3> nodes, std::vector<Mat3> frames);
   // Frames for a polyline: d3 along each segment, d1 carried by parallel
-  // transport from `first_normal` (a twist-free, "Bishop" frame).
+  // transport from `first_normal` (a twist-free, "Bishop" frame); a zero
+  // first_normal: normal_across(the first element). InputError for
+  // coincident nodes and a first_normal along the first element.
   static std::vector<Mat3> parallel_transport_frames(const std::vector<Vec3>& nodes,
                                                      const Vec3& first_normal);
+  // The coordinate axis least aligned with `direction` (a normal that is
+  // never parallel to it).
+  static Vec3 normal_across(const Vec3& direction);
   int elements() const { return static_cast<int>(frames.size()); }
 };
 

@@ -110,9 +110,12 @@ struct RampMotion : RootMotion {
 // head, a game's hand, a collider it animates), by name: a scene's
 // `motion = "host"` (docs/scenes.md "Host-driven motion"), the C API's
 // mr_batch_set_driver_pose, the Python module's Batch.set_driver_pose.
-// set_target(now, target, until) moves it from where it is at `now` (at(now))
-// to `target` at `until`: the translation linearly, the rotation along the
-// shortest arc (constant angular velocity), held at `target` after `until`;
+// set_target(now, target, until, pivot) moves it from where it is at `now`
+// (at(now)) to `target` at `until`: the rotation along the shortest arc
+// (constant angular velocity) and the image of the body point `pivot` on a
+// straight line (so a head turned about its neck keeps the neck in place
+// during the move; pivot 0: the translation linearly), held at `target`
+// after `until`;
 // until = now jumps (a teleport: the step sees an infinite velocity, so only
 // for a first placement). It starts at the identity pose. set_target must
 // not run while a step evaluates at() (the host sets poses between steps).
@@ -123,12 +126,13 @@ class HostMotion : public RootMotion {
   Pose at(double t) const override;
   // InputError for a non-finite or improper rotation (det ≠ 1, not
   // orthonormal within 1e-6), a non-finite translation, until < now.
-  void set_target(double now, const Pose& target, double until);
+  void set_target(double now, const Pose& target, double until, const Vec3& pivot = {0, 0, 0});
 
  private:
   std::string name_;
   double t0_ = 0, t1_ = 0;
   Pose p0_, p1_;
+  Vec3 pivot_{0, 0, 0};
 };
 
 // A motion over one step [t, t + h] (host/core/step/root_motion.h apply_root_motion): the

@@ -86,7 +86,8 @@ MR_API mr_status mr_batch_create_from_scene(const char* path, mr_batch** out);
  * which is also its rest shape (unstressed). frames: elements frames, each 9
  * numbers row-major with rows d1, d2, d3 (d3 along the element), or NULL
  * for twist-free frames carried along the rod by parallel transport from
- * first_normal (any vector not along the first element). */
+ * first_normal (any vector not along the first element; 0, 0, 0: the
+ * coordinate axis least aligned with it). */
 typedef struct mr_rod_desc {
   int elements;
   const double* nodes;
@@ -118,7 +119,7 @@ typedef struct mr_batch_settings {
 
 /* 10 elements of a 1 cm radius circular section, E = 1 MPa, ν = 0.5,
  * ρ = 1000 kg/m³, undamped, root clamped, tip free, frames by parallel
- * transport from first_normal (1, 0, 0), nodes NULL (set them). */
+ * transport from a chosen first_normal (0, 0, 0), nodes NULL (set them). */
 MR_API void mr_default_rod_desc(mr_rod_desc* rod);
 /* Double precision, gravity (0, 0, −9.81). */
 MR_API void mr_default_batch_settings(mr_batch_settings* settings);
@@ -131,8 +132,13 @@ MR_API void mr_batch_destroy(mr_batch* b); /* NULL: nothing */
 /* ---- stepping ------------------------------------------------------------------ */
 
 /* `count` steps of length dt (s). MR_ERROR_NON_FINITE names the first bad
- * rod and step; a dt above the stable step says so. */
+ * rod and step. A dt above the stable step (mr_batch_stable_dt) is refused
+ * before any step, as `manyrods run` refuses it: MR_ERROR_INPUT with the
+ * limit and the safe value (0.9 of the limit), unless mr_batch_set_force_dt. */
 MR_API mr_status mr_batch_step(mr_batch* b, double dt, int count);
+/* 1: step at any dt (the stable-step guard of mr_batch_step off); 0: guarded
+ * (the default; a scene with simulation.force_dt = true starts at 1). */
+MR_API mr_status mr_batch_set_force_dt(mr_batch* b, int force);
 /* The step the scene asks for (its dt, or "auto": 0.9 of the stable step,
  * aligned to its frames); for rods described in C 0.9 of the stable step. */
 MR_API double mr_batch_dt(const mr_batch* b);
@@ -223,6 +229,13 @@ MR_API mr_status mr_batch_find_driver(const mr_batch* b, const char* name, size_
  * end, then steps to it. time = the batch's time jumps there (for a first
  * placement only: the rods see an infinite velocity). */
 MR_API mr_status mr_batch_set_driver_pose(mr_batch* b, size_t driver, const mr_pose* pose, double time);
+/* The same move turning about `pivot` (a point of the driver's body, in the
+ * coordinates of its identity pose): the pose maps x to
+ * R (x − pivot) + pivot + translation, and during the move the pivot's image
+ * travels on a straight line (a head turned about its neck keeps the neck in
+ * place while it turns, where mr_batch_set_driver_pose moves the origin's). */
+MR_API mr_status mr_batch_set_driver_pose_about(mr_batch* b, size_t driver, const mr_pose* pose,
+                                                const double pivot[3], double time);
 
 #ifdef __cplusplus
 }

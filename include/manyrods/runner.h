@@ -33,6 +33,19 @@ namespace manyrods::scene {
 
 inline constexpr std::int64_t kSampleSteps = 64;
 
+// ---- what a command may write: checked before any work ----------------------------
+// SceneError when `output` is one of `inputs`: the same file by identity
+// (std::filesystem::equivalent: another name, a hard or a symbolic link).
+// `what` names the option in the message ("-o", "--usd").
+void check_not_input(const std::string& output, const std::vector<std::string>& inputs, const std::string& what);
+// SceneError unless `output`'s extension (case-insensitive, with its dot) is
+// one of `extensions`; `format` names what is written ("USD ASCII").
+void check_extension(const std::string& output, const std::vector<std::string>& extensions, const std::string& what,
+                     const std::string& format);
+// An HDF5 output (run, sweep): not one of `inputs`, and no extension of the
+// project's other formats (.toml, .usda, .usd, .usdc, .usdz, .obj, .csv, .json, .png, .gif).
+void check_h5_output(const std::string& output, const std::vector<std::string>& inputs, const std::string& what);
+
 // A rod whose tip is recorded at every sample point, and the rods
 // [rods_begin, rods_end) whose strain, energies and observables are
 // summarised with it (one sweep variation; a run with observables that is

@@ -123,6 +123,10 @@ struct Scene {
   std::vector<std::shared_ptr<HostMotion>> host_motions;
   // [[observables]] (include/manyrods/observables.h)
   std::vector<Observable> observables;
+  // The files the scene was read from: its source when that is a file, the
+  // mesh colliders' OBJ files and the groups' from_curves files (a command
+  // refuses to write over any of them: runner.h check_not_input).
+  std::vector<std::string> inputs;
 };
 
 // Parses and validates. `overrides` set numeric values by key path before

@@ -26,6 +26,7 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "manyrods/batch.h"
 #include "manyrods/profile.h"
@@ -130,15 +131,19 @@ struct AdvanceOptions {
   int check_every = 64;  // steps between checks (≥ 1); a check also follows the last step
 };
 
+// The step functions take dt in the batch's precision T, and dt does not
+// take part in deducing T (std::type_identity_t): the batch decides, so a
+// float batch steps with a double dt such as 0.5 * stable_dt(b).elastic.
+//
 // `count` Position Verlet steps of length dt for every rod in the batch, the
 // same result as `count` calls of step (docs/architecture.md "The segment
 // schedule": each segment runs all `count` steps while it is in cache).
 template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
-void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex = {});
+void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, const Exec& ex = {});
 
 // One Position Verlet step of length dt for every rod in the batch.
 template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, class T>
-void step(RodBatch<T>& b, T dt, const Exec& ex = {}) {
+void step(RodBatch<T>& b, std::type_identity_t<T> dt, const Exec& ex = {}) {
   step_n<kT, kV>(b, dt, 1, ex);
 }
 
@@ -147,7 +152,7 @@ void step(RodBatch<T>& b, T dt, const Exec& ex = {}) {
 // in its kicks, 4 keeps the method 4th order in 3-D). Throws
 // std::invalid_argument for a batch with stiff rods (Position Verlet only).
 template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, int kEulerOrder = 4, class T>
-void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {});
+void step_pefrl(RodBatch<T>& b, std::type_identity_t<T> dt, const Exec& ex = {});
 
 // Advances every rod of the batch by `steps` steps of length dt with the
 // chosen integrator. The state is checked every opt.check_every steps and
@@ -157,7 +162,7 @@ void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex = {});
 // std::invalid_argument for steps < 0 or check_every < 1.
 template <Terms kT = kAllTerms, Viscous kV = Viscous::implicit, Integrator kI = Integrator::position_verlet,
           class T>
-void advance(RodBatch<T>& b, T dt, std::int64_t steps, const Exec& ex = {}, const AdvanceOptions& opt = {});
+void advance(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t steps, const Exec& ex = {}, const AdvanceOptions& opt = {});
 
 template <Terms kT = kAllTerms, class T>
 Energies energies(const RodBatch<T>& b, int rod = -1);

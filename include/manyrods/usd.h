@@ -21,7 +21,8 @@ struct ExportResult {
 // end (an existing file is replaced only by a complete one). Throws
 // h5::H5Error (include/manyrods/h5io.h) for an unreadable input, a run with
 // no frames, non-finite positions (checked before anything is written) or a
-// file that cannot be written.
+// file that cannot be written; scene::SceneError, before anything is read,
+// for a usd_path without .usda or .usd or that is the input itself.
 ExportResult export_usd(const std::string& h5_path, const std::string& usd_path, int every = 1);
 
 }  // namespace manyrods::usd

@@ -168,7 +168,9 @@ nb::dict energies_dict(const manyrods::Energies& e) {
 }
 
 // Steps with the GIL released; Ctrl-C between chunks (see the top).
-void step_batch(PyBatch& pb, double dt, std::int64_t count) {
+// force_dt: run a dt above the stable limit (AnyBatch::check_dt refuses it
+// otherwise, as `manyrods run` does).
+void step_batch(PyBatch& pb, double dt, std::int64_t count, bool force_dt) {
   bool interrupted = false;
   {
     nb::gil_scoped_release release;
@@ -178,7 +180,7 @@ void step_batch(PyBatch& pb, double dt, std::int64_t count) {
                 if (PyErr_CheckSignals() != 0) interrupted = true;
                 return !interrupted;
               },
-              0.1);
+              0.1, force_dt);
   }
   if (interrupted) throw nb::python_error();
 }
@@ -285,22 +287,28 @@ void bind_batch_state(nb::class_<PyBatch>& c) {
 // Stepping, energies, the stable step and statics.
 void bind_batch_dynamics(nb::class_<PyBatch>& c) {
   c.def(
-       "step", [](PyBatch& p, double dt, std::int64_t count) { step_batch(p, dt, count); }, "dt"_a,
-       "count"_a = 1,
+       "step",
+       [](PyBatch& p, double dt, std::int64_t count, bool force_dt) { step_batch(p, dt, count, force_dt); }, "dt"_a,
+       "count"_a = 1, nb::kw_only(), "force_dt"_a = false,
        "`count` steps of length dt (GIL released; Ctrl-C stops between chunks). NonFiniteError names the first "
-       "bad step.")
+       "bad step.\n\nThe step-size guard: a dt above stable_dt()['elastic'] (the limit of what the batch "
+       "integrates explicitly) raises ValueError naming the limit and the safe value (0.9 x the limit), as "
+       "`manyrods run` does; force_dt=True runs it anyway, for studying what it does (a rod that moves then "
+       "blows up within a few steps: NonFiniteError).")
       .def(
           "advance",
-          [](PyBatch& p, double duration, std::optional<double> dt) {
+          [](PyBatch& p, double duration, std::optional<double> dt, bool force_dt) {
             const double h = dt ? *dt : p.b.scene_dt();
             if (!(duration >= 0) || !std::isfinite(duration))
               throw manyrods::InputError("advance: duration must be >= 0 and finite");
             if (!(h > 0)) throw manyrods::InputError("advance: dt must be > 0");
             const std::int64_t n = std::llround(duration / h);
-            step_batch(p, h, n);
+            step_batch(p, h, n, force_dt);
             return n;
           },
-          "duration"_a, "dt"_a = nb::none(), "Advance by `duration` s in steps of dt (default: Batch.dt); returns the steps")
+          "duration"_a, "dt"_a = nb::none(), nb::kw_only(), "force_dt"_a = false,
+          "Advance by `duration` s in steps of dt (default: Batch.dt); returns the steps. A dt above "
+          "stable_dt()['elastic'] raises ValueError (the step-size guard, see Batch.step) unless force_dt=True.")
       .def(
           "energies", [](const PyBatch& p, int rod) { return energies_dict(p.b.energies(rod)); }, "rod"_a = -1,
           "kinetic, elastic, potential (J), dissipation (2·D_v, W), contact_work, total of a rod (-1: all)")
@@ -344,6 +352,76 @@ void bind_batch_output(nb::class_<PyBatch>& c) {
           "An HDF5 file (the run layout) with this state as its one frame and checkpoint");
 }
 
+// ---- driver poses: rotation as a matrix, 9 numbers or a quaternion --------
+
+// The rotation of set_driver_pose from a 3 × 3 array-like, 9 numbers row by
+// row, or a unit quaternion (w, x, y, z); InputError naming what is wrong.
+manyrods::Mat3 rotation_of(nb::handle rotation) {
+  const nb::object a = float64_array(rotation, "rotation");
+  const nb::ndarray<const double, nb::device::cpu> v = nb::cast<nb::ndarray<const double, nb::device::cpu>>(a);
+  std::vector<double> q;
+  const std::int64_t* st = v.stride_ptr();
+  if (v.ndim() == 2 && v.shape(0) == 3 && v.shape(1) == 3) {
+    for (std::size_t r = 0; r < 3; ++r)
+      for (std::size_t c = 0; c < 3; ++c) q.push_back(v.data()[std::int64_t(r) * st[0] + std::int64_t(c) * st[1]]);
+  } else if (v.ndim() == 1 && (v.shape(0) == 9 || v.shape(0) == 4)) {
+    for (std::size_t i = 0; i < v.shape(0); ++i) q.push_back(v.data()[std::int64_t(i) * st[0]]);
+  } else {
+    std::string shape = "(";
+    for (std::size_t i = 0; i < v.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(v.shape(i));
+    shape += v.ndim() == 1 ? ",)" : ")";
+    throw manyrods::InputError("rotation: a 3 x 3 matrix, 9 numbers (row by row) or a quaternion (w, x, y, z) "
+                               "expected (got shape " + shape + ")");
+  }
+  for (std::size_t i = 0; i < q.size(); ++i)
+    if (!std::isfinite(q[i]))
+      throw manyrods::InputError("rotation: value " + std::to_string(i) + " is not finite");
+  manyrods::Mat3 m;
+  if (q.size() == 4) {  // unit quaternion (w, x, y, z) → matrix
+    const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (!(std::abs(n - 1) <= 1e-6))
+      throw manyrods::InputError("rotation: a quaternion (w, x, y, z) must have unit norm (within 1e-6; got |q| = " +
+                                 std::to_string(n) + ")");
+    const double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
+    m = {1 - 2 * (y * y + z * z), 2 * (x * y - z * w),     2 * (x * z + y * w),
+         2 * (x * y + z * w),     1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+         2 * (x * z - y * w),     2 * (y * z + x * w),     1 - 2 * (x * x + y * y)};
+    return m;
+  }
+  std::copy(q.begin(), q.end(), m.begin());
+  double err = 0;
+  for (int r = 0; r < 3; ++r)
+    for (int s = 0; s < 3; ++s) {
+      double d = 0;
+      for (int c = 0; c < 3; ++c) d += m[3 * r + c] * m[3 * s + c];
+      err = std::max(err, std::abs(d - (r == s)));
+    }
+  const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+                     m[2] * (m[3] * m[7] - m[4] * m[6]);
+  if (!(err <= 1e-6) || !(det > 0))
+    throw manyrods::InputError("rotation: not a proper rotation (|R R^T - I| = " + std::to_string(err) +
+                               " (at most 1e-6), det = " + std::to_string(det) + " (must be 1))");
+  return m;
+}
+
+void set_driver_pose(PyBatch& p, const std::string& name, nb::handle rotation,
+                     std::optional<std::vector<double>> translation, std::optional<std::vector<double>> pivot,
+                     double time) {
+  manyrods::Pose pose;
+  if (!rotation.is_none()) pose.rotation = rotation_of(rotation);
+  const Vec3 t = translation ? vec3(*translation, "translation") : Vec3{0, 0, 0};
+  const Vec3 c = pivot ? vec3(*pivot, "pivot") : Vec3{0, 0, 0};
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(t[i]) || !std::isfinite(c[i]))
+      throw manyrods::InputError(std::string(std::isfinite(t[i]) ? "pivot" : "translation") + ": component " +
+                                 std::to_string(i) + " is not finite");
+  // x ↦ R (x − c) + c + t = R x + (c − R c + t): the library's Pose
+  const manyrods::Mat3& R = pose.rotation;
+  for (int i = 0; i < 3; ++i)
+    pose.translation[i] = pivot ? t[i] + (c[i] - (R[3 * i] * c[0] + R[3 * i + 1] * c[1] + R[3 * i + 2] * c[2])) : t[i];
+  p.b.set_driver_pose(p.b.find_driver(name), pose, time, c);
+}
+
 // Host motions (drivers) and their poses.
 void bind_batch_drivers(nb::class_<PyBatch>& c) {
   c.def_prop_ro(
@@ -354,23 +432,20 @@ void bind_batch_drivers(nb::class_<PyBatch>& c) {
          return v;
        },
        "the names of the batch's host motions (a scene's motion = \"host\", Rod.root_driver / tip_driver)")
-      .def(
-          "set_driver_pose",
-          [](PyBatch& p, const std::string& name, std::optional<std::vector<double>> rotation,
-             std::optional<std::vector<double>> translation, double time) {
-            manyrods::Pose pose;
-            if (rotation) {
-              if (rotation->size() != 9)
-                throw manyrods::InputError("rotation: needs 9 values, a 3 × 3 matrix row by row (got " +
-                                           std::to_string(rotation->size()) + ")");
-              std::copy(rotation->begin(), rotation->end(), pose.rotation.begin());
-            }
-            if (translation) pose.translation = vec3(*translation, "translation");
-            p.b.set_driver_pose(p.b.find_driver(name), pose, time);
-          },
-          "name"_a, "rotation"_a = nb::none(), "translation"_a = nb::none(), nb::kw_only(), "time"_a,
-          "Moves the host motion `name` from its pose at Batch.time to this pose (rotation: 9 numbers row by row, "
-          "default identity; translation default 0) at `time` >= Batch.time, and holds it there");
+      .def("set_driver_pose", &set_driver_pose, "name"_a, "rotation"_a = nb::none(), "translation"_a = nb::none(),
+           nb::kw_only(), "pivot"_a = nb::none(), "time"_a,
+           nb::sig("def set_driver_pose(self, name: str, rotation: numpy.typing.ArrayLike | None = None, "
+                   "translation: collections.abc.Sequence[float] | None = None, *, "
+                   "pivot: collections.abc.Sequence[float] | None = None, time: float) -> None"),
+           "Moves the host motion `name` from its pose at Batch.time to this pose at `time` >= Batch.time (the "
+           "translation linearly, the rotation along the shortest arc), and holds it there. The pose maps a point "
+           "x to R (x - pivot) + pivot + translation.\n\n"
+           "rotation: a 3 x 3 array-like (R, rows), 9 numbers (R row by row) or a unit quaternion "
+           "(w, x, y, z), scalar first, Hamilton convention: (cos(a/2), sin(a/2) axis) turns by a about axis); "
+           "default identity. A matrix must be a proper rotation (|R R^T - I| <= 1e-6, det > 0), a quaternion "
+           "unit within 1e-6 (it is normalized); values must be finite.\n"
+           "translation: 3 numbers, m, default 0. pivot: the point the rotation turns about, m, default the "
+           "origin.");
 }
 
 }  // namespace

@@ -35,6 +35,17 @@ inline Vec3 vec3(const std::vector<double>& v, const char* what) {
   return {v[0], v[1], v[2]};
 }
 
+// `h` as a float64 NumPy array (numpy.asarray: lists, tuples, arrays of any
+// number type); InputError naming `what` when it is not numbers.
+inline nb::object float64_array(nb::handle h, const char* what) {
+  try {
+    return nb::module_::import_("numpy").attr("asarray")(h, "dtype"_a = "float64");
+  } catch (const nb::python_error& e) {
+    throw manyrods::InputError(std::string(what) + ": not an array of numbers (" +
+                               nb::str(e.value()).c_str() + ")");
+  }
+}
+
 inline Precision precision_of(const std::string& p) {
   if (p == "double" || p == "float64") return Precision::float64;
   if (p == "float" || p == "float32") return Precision::float32;

@@ -1,5 +1,7 @@
 // python/src/rod.cpp — manyrods._core: sections, materials, damping
 // (include/manyrods/material.h) and rods (include/manyrods/batch.h RodSpec).
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -38,6 +40,30 @@ std::vector<Mat3> frames_of(const Frames& a, const char* what) {
   return out;
 }
 
+// An array-like (a NumPy array, nested lists) of `ndim` dimensions as a
+// float64 array (a Points or Frames), InputError naming `what` otherwise.
+template <class Array>
+Array array_of(nb::handle h, std::size_t ndim, const char* what, const char* shape) {
+  const nb::object a = float64_array(h, what);
+  if (nb::cast<std::size_t>(a.attr("ndim")) != ndim)
+    throw manyrods::InputError(std::string(what) + ": shape " + shape + " expected (got " +
+                               nb::repr(a.attr("shape")).c_str() + ")");
+  return nb::cast<Array>(a);
+}
+
+// The section and material of a named constructor: both required (the
+// library's defaults are zero, which no rod can be built from).
+void require(const char* function, const std::optional<manyrods::Section>& section,
+             const std::optional<manyrods::Material>& material) {
+  if (section && material) return;
+  std::string missing = !section && !material ? "'section' and 'material'" : !section ? "'section'" : "'material'";
+  throw nb::type_error((std::string("Rod.") + function + "(): missing required keyword argument " + missing +
+                        ": a rod has no default cross section or material; pass e.g. "
+                        "section=manyrods.Section.circle(0.005), "
+                        "material=manyrods.Material(density=1000, youngs_modulus=1e6, poisson_ratio=0.5)")
+                           .c_str());
+}
+
 nb::ndarray<nb::numpy, double> points_array(const std::vector<Vec3>& p) {
   auto* data = new double[p.size() * 3];
   for (std::size_t i = 0; i < p.size(); ++i) std::memcpy(data + 3 * i, p[i].data(), 3 * sizeof(double));
@@ -67,6 +93,56 @@ std::string hold_of(const RodSpec& r, bool root) {
   return !h ? "free" : *h == manyrods::HoldKind::clamped ? "clamped" : "pinned";
 }
 
+// ---- reprs: Python expressions that rebuild the value ---------------------
+
+// x as Python reads it, shortest round-trip ("0.01", "1000", "1e6", "2.5e-5").
+std::string number(double x) {
+  if (std::isnan(x)) return "math.nan";
+  if (std::isinf(x)) return x > 0 ? "math.inf" : "-math.inf";
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, x);
+  std::string s(buf, r.ptr);
+  const std::size_t e = s.find('e');
+  if (e != std::string::npos) {  // "1e+06" -> "1e6", "2.5e-05" -> "2.5e-5"
+    std::string exp = s.substr(e + 1);
+    const bool neg = exp[0] == '-';
+    if (exp[0] == '+' || exp[0] == '-') exp.erase(0, 1);
+    exp.erase(0, std::min(exp.find_first_not_of('0'), exp.size() - 1));
+    s = s.substr(0, e + 1) + (neg ? "-" : "") + exp;
+  }
+  return s;
+}
+
+std::string section_repr(const manyrods::Section& x) {
+  using Shape = manyrods::Shape;
+  switch (x.shape) {
+    case Shape::circle: return "Section.circle(" + number(x.a) + ")";
+    case Shape::ellipse: return "Section.ellipse(" + number(x.a) + ", " + number(x.b) + ")";
+    case Shape::rectangle: return "Section.rectangle(" + number(x.a) + ", " + number(x.b) + ")";
+    case Shape::hollow_circle: return "Section.hollow_circle(" + number(x.a) + ", " + number(x.b) + ")";
+  }
+  return "Section(?)";
+}
+
+std::string material_repr(const manyrods::Material& x) {
+  std::string s = "Material(density=" + number(x.density) + ", youngs_modulus=" + number(x.youngs_modulus);
+  if (!std::isnan(x.poisson_ratio)) s += ", poisson_ratio=" + number(x.poisson_ratio);
+  if (!std::isnan(x.shear_modulus)) s += ", shear_modulus=" + number(x.shear_modulus);
+  return s + ")";
+}
+
+std::string damping_repr(const manyrods::Damping& x) {
+  using Form = manyrods::Damping::Form;
+  const std::string args = "(" + number(x.p1) + ", " + number(x.p2) + ")";
+  switch (x.form) {
+    case Form::none: return "Damping.none()";
+    case Form::shear_bulk: return "Damping.shear_bulk" + args;
+    case Form::shear_extension: return "Damping.shear_extension" + args;
+    case Form::viscosities: return "Damping.viscosities" + args;
+  }
+  return "Damping(?)";
+}
+
 }  // namespace
 
 // ---- sections, materials, damping (include/manyrods/material.h)
@@ -77,7 +153,8 @@ void bind_materials(nb::module_& m) {
       .def_static("rectangle", &manyrods::Section::rectangle, "width_1"_a, "height_2"_a)
       .def_static("hollow_circle", &manyrods::Section::hollow_circle, "outer_radius"_a, "inner_radius"_a)
       .def_rw("a", &manyrods::Section::a)
-      .def_rw("b", &manyrods::Section::b);
+      .def_rw("b", &manyrods::Section::b)
+      .def("__repr__", &section_repr);
 
   nb::class_<manyrods::Material>(m, "Material", "Elastic material, SI units; give poisson_ratio or shear_modulus")
       .def(
@@ -89,14 +166,16 @@ void bind_materials(nb::module_& m) {
       .def_rw("density", &manyrods::Material::density)
       .def_rw("youngs_modulus", &manyrods::Material::youngs_modulus)
       .def_rw("poisson_ratio", &manyrods::Material::poisson_ratio)
-      .def_rw("shear_modulus", &manyrods::Material::shear_modulus);
+      .def_rw("shear_modulus", &manyrods::Material::shear_modulus)
+      .def("__repr__", &material_repr);
 
   nb::class_<manyrods::Damping>(m, "Damping", "Kelvin–Voigt parameters (retardation times in s, or viscosities)")
       .def(nb::init<>())
       .def_static("none", &manyrods::Damping::none)
       .def_static("shear_bulk", &manyrods::Damping::shear_bulk, "tau_shear"_a, "tau_bulk"_a)
       .def_static("shear_extension", &manyrods::Damping::shear_extension, "tau_shear"_a, "tau_extension"_a)
-      .def_static("viscosities", &manyrods::Damping::viscosities, "shear_viscosity"_a, "bulk_viscosity"_a);
+      .def_static("viscosities", &manyrods::Damping::viscosities, "shear_viscosity"_a, "bulk_viscosity"_a)
+      .def("__repr__", &damping_repr);
 }
 
 // ---- rods (include/manyrods/batch.h RodSpec)
@@ -129,45 +208,62 @@ RodSpec with_properties(RodSpec r, const manyrods::Section& section, const manyr
 
 // The named constructors: straight and polyline.
 void bind_rod_factories(nb::class_<RodSpec>& c) {
+  // (section and material are required; they are taken as None-able only so
+  // that a missing one gets its own TypeError, and the signatures say so)
   c.def_static(
        "straight",
        [](const std::vector<double>& start, const std::vector<double>& direction, double length, int elements,
-          std::optional<std::vector<double>> normal, const manyrods::Section& section,
-          const manyrods::Material& material, const manyrods::Damping& damping, const std::string& root,
-          const std::string& tip, bool stiff, const std::string& name) {
+          std::optional<std::vector<double>> normal, const std::optional<manyrods::Section>& section,
+          const std::optional<manyrods::Material>& material, const manyrods::Damping& damping,
+          const std::string& root, const std::string& tip, bool stiff, const std::string& name) {
+         require("straight", section, material);
          const Vec3 d = vec3(direction, "direction");
          const Vec3 n = normal ? vec3(*normal, "normal") : least_aligned_axis(d);
          if (!(elements >= 1)) throw manyrods::InputError("elements: must be >= 1 (got " + std::to_string(elements) + ")");
-         return with_properties(RodSpec::straight(vec3(start, "start"), d, n, length, elements), section, material,
+         return with_properties(RodSpec::straight(vec3(start, "start"), d, n, length, elements), *section, *material,
                                 damping, root, tip, stiff, name);
        },
        "start"_a, "direction"_a, "length"_a, "elements"_a, nb::kw_only(), "normal"_a = nb::none(),
-       "section"_a = manyrods::Section{}, "material"_a = manyrods::Material{}, "damping"_a = manyrods::Damping{},
+       "section"_a = nb::none(), "material"_a = nb::none(), "damping"_a = manyrods::Damping::none(),
        "root"_a = "clamped", "tip"_a = "free", "stiff"_a = false, "name"_a = "",
-       "A straight rod from `start` along `direction` (d3), d1 along `normal` made orthogonal.")
+       nb::sig("def straight(start: collections.abc.Sequence[float], direction: collections.abc.Sequence[float], "
+               "length: float, elements: int, *, normal: collections.abc.Sequence[float] | None = None, "
+               "section: manyrods.Section, material: manyrods.Material, "
+               "damping: manyrods.Damping = Damping.none(), root: str = 'clamped', tip: str = 'free', "
+               "stiff: bool = False, name: str = '') -> manyrods.Rod"),
+       "A straight rod of `elements` elements from `start` along `direction` (d3), d1 along `normal` made "
+       "orthogonal (default: the axis least aligned with `direction`). `section` and `material` are required "
+       "(TypeError without them): there is no default rod. root, tip: \"clamped\", \"pinned\" or \"free\".")
       .def_static(
           "polyline",
-          [](const Points& nodes, std::optional<Frames> frames, std::optional<std::vector<double>> first_normal,
-             const manyrods::Section& section, const manyrods::Material& material, const manyrods::Damping& damping,
-             const std::string& root, const std::string& tip, bool stiff, const std::string& name) {
-            std::vector<Vec3> x = points_of(nodes, "nodes");
+          [](nb::handle nodes, nb::handle frames, std::optional<std::vector<double>> first_normal,
+             const std::optional<manyrods::Section>& section, const std::optional<manyrods::Material>& material,
+             const manyrods::Damping& damping, const std::string& root, const std::string& tip, bool stiff,
+             const std::string& name) {
+            require("polyline", section, material);
+            std::vector<Vec3> x = points_of(array_of<Points>(nodes, 2, "nodes", "(n+1, 3)"), "nodes");
             if (x.size() < 2) throw manyrods::InputError("nodes: a rod needs at least 2 nodes (got " + std::to_string(x.size()) + ")");
             std::vector<Mat3> q;
-            if (frames) {
-              q = frames_of(*frames, "frames");
+            if (!frames.is_none()) {
+              q = frames_of(array_of<Frames>(frames, 3, "frames", "(n, 3, 3)"), "frames");
             } else {
               const Vec3 t{x[1][0] - x[0][0], x[1][1] - x[0][1], x[1][2] - x[0][2]};
               q = RodSpec::parallel_transport_frames(
                   x, first_normal ? vec3(*first_normal, "first_normal") : least_aligned_axis(t));
             }
-            return with_properties(RodSpec::polyline(std::move(x), std::move(q)), section, material, damping, root, tip,
-                                   stiff, name);
+            return with_properties(RodSpec::polyline(std::move(x), std::move(q)), *section, *material, damping, root,
+                                   tip, stiff, name);
           },
           "nodes"_a, "frames"_a = nb::none(), nb::kw_only(), "first_normal"_a = nb::none(),
-          "section"_a = manyrods::Section{}, "material"_a = manyrods::Material{}, "damping"_a = manyrods::Damping{},
+          "section"_a = nb::none(), "material"_a = nb::none(), "damping"_a = manyrods::Damping::none(),
           "root"_a = "clamped", "tip"_a = "free", "stiff"_a = false, "name"_a = "",
-          "A rod along the polyline `nodes` (n+1, 3): its shape is the rest shape. `frames` (n, 3, 3), rows d1, d2, "
-          "d3; default: parallel transport (twist-free) from `first_normal`.");
+          nb::sig("def polyline(nodes: numpy.typing.ArrayLike, frames: numpy.typing.ArrayLike | None = None, *, "
+                  "first_normal: collections.abc.Sequence[float] | None = None, section: manyrods.Section, "
+                  "material: manyrods.Material, damping: manyrods.Damping = Damping.none(), root: str = 'clamped', "
+                  "tip: str = 'free', stiff: bool = False, name: str = '') -> manyrods.Rod"),
+          "A rod along the polyline `nodes` ((n+1, 3) array-like, m): its shape is the rest shape. `frames` "
+          "(n, 3, 3), rows d1, d2, d3; default: parallel transport (twist-free) from `first_normal`. `section` and "
+          "`material` are required (TypeError without them): there is no default rod.");
 }
 
 // A held end's host motion by name (a HostMotion; None: static), for

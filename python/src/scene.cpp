@@ -72,16 +72,24 @@ void bind_scene_run(nb::class_<Scene>& c) {
   c.def(
        "run",
        [](const Scene& s, const std::string& output, int threads, std::optional<double> duration,
-          double checkpoint_every, bool progress) {
+          double checkpoint_every, bool progress, bool force_dt) {
          manyrods::scene::RunResult r;
          {
            nb::gil_scoped_release release;
-           r = manyrods::scene::run_scene(s, run_options(output, threads, duration, checkpoint_every, progress));
+           Scene forced;
+           if (force_dt) {  // `manyrods run --force-dt`
+             forced = s;
+             forced.sim.force_dt = true;
+           }
+           r = manyrods::scene::run_scene(force_dt ? forced : s,
+                                          run_options(output, threads, duration, checkpoint_every, progress));
          }
          return run_result(r);
        },
        "output"_a, nb::kw_only(), "threads"_a = 1, "duration"_a = nb::none(), "checkpoint_every"_a = 0.0,
-       "progress"_a = false, "Run the scene into an HDF5 file, as `manyrods run` does");
+       "progress"_a = false, "force_dt"_a = false,
+       "Run the scene into an HDF5 file, as `manyrods run` does. A dt above the scene's stable limit raises "
+       "ValueError (the step-size guard) unless force_dt=True (`--force-dt`)");
 }
 
 // Scene.sweep: a parameter sweep.
@@ -90,7 +98,7 @@ void bind_scene_sweep(nb::class_<Scene>& c) {
        "sweep",
        [](const Scene& s, const std::vector<std::string>& vary, const std::string& output, int samples,
           std::uint64_t seed, int threads, std::optional<double> duration, std::optional<std::string> design,
-          const std::string& frames) {
+          const std::string& frames, bool force_dt) {
          if (frames != "ends" && frames != "all" && frames != "none")
            throw manyrods::scene::SceneError("sweep: frames = '" + frames + "': expected 'ends', 'all' or 'none'");
          std::vector<manyrods::scene::Vary> vs;
@@ -99,7 +107,8 @@ void bind_scene_sweep(nb::class_<Scene>& c) {
          manyrods::scene::SweepRun r;
          {
            nb::gil_scoped_release release;
-           const manyrods::scene::Sweep sw = manyrods::scene::make_sweep(s.text, s.source, vs, des);
+           manyrods::scene::Sweep sw = manyrods::scene::make_sweep(s.text, s.source, vs, des);
+           sw.scene.sim.force_dt = force_dt;  // `manyrods sweep --force-dt`
            manyrods::scene::RunOptions opt = run_options(output, threads, duration, 0, false);
            opt.frames = frames == "all"    ? manyrods::scene::RunOptions::Frames::all
                         : frames == "none" ? manyrods::scene::RunOptions::Frames::none
@@ -121,11 +130,11 @@ void bind_scene_sweep(nb::class_<Scene>& c) {
          return d;
        },
        "vary"_a, "output"_a, nb::kw_only(), "samples"_a = 0, "seed"_a = 0, "threads"_a = 1,
-       "duration"_a = nb::none(), "design"_a = nb::none(), "frames"_a = "ends",
+       "duration"_a = nb::none(), "design"_a = nb::none(), "frames"_a = "ends", "force_dt"_a = false,
        "A parameter sweep (`manyrods sweep`): vary = ['rods.0.damping.tau_extension=0:0.05:5', "
        "'rods.0.material.youngs_modulus=lognormal:1e6:0.2', …], design = 'grid' | 'mc' | 'lhs' | 'sobol' "
        "(default: grid, or mc with samples), frames = 'ends' (first and last step), 'all' or 'none'; returns the "
-       "parameters, the per-variation summary and its statistics as NumPy arrays");
+       "parameters, the per-variation summary and its statistics as NumPy arrays; force_dt as in Scene.run");
 }
 
 }  // namespace

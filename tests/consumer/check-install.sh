@@ -11,8 +11,27 @@ mkdir -p "$work"
 cmake --install "$build" --prefix "$work/prefix" >"$work/install.log"
 gen=()
 if command -v ninja >/dev/null 2>&1; then gen=(-G Ninja); fi
+# The README's first ```cpp block, as a function template over the batch's
+# precision (RodBatch<double> and build_batch<double> become T; its dt stays
+# a double, as a user writes it), called for float and double.
+readme="$src/../../README.md"
+example="$work/readme_example.cpp"
+awk '/^```cpp/ { if (!done) { on = 1; next } } /^```/ { if (on) { on = 0; done = 1 } } on' "$readme" >"$work/readme_block.txt"
+[ -s "$work/readme_block.txt" ] || { echo "FAIL: no \`\`\`cpp block in $readme"; exit 1; }
+{
+  grep -E '^#include' "$work/readme_block.txt"
+  echo '#include <cmath>'
+  echo '#include <cstdio>'
+  grep -E '^using ' "$work/readme_block.txt"
+  echo 'template <class T> bool readme_example() {'
+  grep -vE '^(#include|using )' "$work/readme_block.txt" | sed -e 's/<double>/<T>/g'
+  echo '  std::printf("README example (%s): tip (%g, %g, %g)\n", sizeof(T) == 4 ? "float" : "double", tip[0], tip[1], tip[2]);'
+  echo '  return std::isfinite(tip[0]) && std::isfinite(tip[1]) && std::isfinite(tip[2]);'
+  echo '}'
+  echo 'int main() { return readme_example<float>() && readme_example<double>() ? 0 : 1; }'
+} >"$example"
 cmake -S "$src" -B "$work/build" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$work/prefix" \
-  -DCMAKE_EXPORT_COMPILE_COMMANDS=ON >"$work/configure.log"
+  -DREADME_EXAMPLE="$example" -DCMAKE_EXPORT_COMPILE_COMMANDS=ON >"$work/configure.log"
 cmake --build "$work/build" >"$work/build.log" || { cat "$work/build.log"; exit 1; }
 fail=0
 commands="$work/build/compile_commands.json"
@@ -33,6 +52,7 @@ done
 echo '#include "manyrods/manyrods_c.h"' | gcc -std=c11 -pedantic -Werror -fsyntax-only -I"$work/prefix/include" -x c - \
   || { echo "FAIL: manyrods_c.h is not C11"; fail=1; }
 "$work/build/consumer" "$scene" || { echo "FAIL: the consumer did not run"; fail=1; }
+"$work/build/readme_example" || { echo "FAIL: the README's example did not run (float and double; $example)"; fail=1; }
 [ -f "$work/build/librodplugin.so" ] || { echo "FAIL: no shared plug-in"; fail=1; }
 if [ -n "$c_example" ]; then
   cmake -S "$c_example" -B "$work/build-c" "${gen[@]}" -DCMAKE_PREFIX_PATH="$work/prefix" \

@@ -34,6 +34,50 @@ def cantilever(elements=16, damping=None, length=0.3, tip="free"):
         damping=damping or manyrods.Damping.none(), root="clamped", tip=tip)
 
 
+# ---- rods: what they need, and how they print ----------------------------------------------
+
+
+def test_a_rod_needs_a_section_and_a_material():
+    section = manyrods.Section.circle(0.005)
+    material = manyrods.Material(density=1000, youngs_modulus=1e6, poisson_ratio=0.5)
+    with pytest.raises(TypeError, match=r"Rod\.straight\(\): missing required keyword argument 'material'"):
+        manyrods.Rod.straight([0, 0, 0], [0, 0, 1], 1.0, 4, section=section)
+    with pytest.raises(TypeError, match=r"Rod\.polyline\(\): missing required keyword argument 'section' and 'material'"):
+        manyrods.Rod.polyline(np.array([[0, 0, 0], [0, 0, 1.0]]))
+    with pytest.raises(TypeError, match="'section'"):
+        manyrods.Rod.polyline([[0, 0, 0], [0, 0, 1]], material=material)
+    # nodes as nested lists or an integer array are converted; a wrong shape names it
+    rod = manyrods.Rod.polyline([[0, 0, 0], [0, 0, 1], [0, 1, 1]], section=section, material=material)
+    assert rod.nodes.shape == (3, 3) and rod.damping.__repr__() == "Damping.none()"
+    with pytest.raises(ValueError, match=r"nodes: shape \(n\+1, 3\) expected \(got \(3,\)\)"):
+        manyrods.Rod.polyline([0, 0, 1], section=section, material=material)
+    with pytest.raises(ValueError, match="nodes: not an array of numbers"):
+        manyrods.Rod.polyline([[0, "a", 0], [0, 0, 1]], section=section, material=material)
+    manyrods.Batch([rod]).step(1e-5)
+
+
+def test_sections_materials_and_damping_print_as_the_expressions_that_make_them():
+    values = [manyrods.Section.rectangle(0.01, 0.01), manyrods.Section.circle(2.5e-5),
+              manyrods.Section.ellipse(0.02, 0.01), manyrods.Section.hollow_circle(0.01, 0.008),
+              manyrods.Material(density=1000, youngs_modulus=1e6, poisson_ratio=0.3),
+              manyrods.Material(density=1300, youngs_modulus=3.9e9, shear_modulus=1.5e9),
+              manyrods.Damping.none(), manyrods.Damping.shear_extension(0.02, 0.03),
+              manyrods.Damping.shear_bulk(0.01, 0.5), manyrods.Damping.viscosities(1e3, 2e3)]
+    texts = [repr(v) for v in values]
+    assert texts[:5] == ["Section.rectangle(0.01, 0.01)", "Section.circle(2.5e-5)", "Section.ellipse(0.02, 0.01)",
+                         "Section.hollow_circle(0.01, 0.008)",
+                         "Material(density=1000, youngs_modulus=1e6, poisson_ratio=0.3)"]
+    # each is a Python expression that rebuilds the value
+    for v, t in zip(values, texts):
+        again = eval(t, {"Section": manyrods.Section, "Material": manyrods.Material, "Damping": manyrods.Damping})
+        assert repr(again) == t
+    # help() shows the signatures readably: required section and material, Damping.none() by default
+    doc = manyrods.Rod.straight.__doc__
+    assert "section: manyrods.Section, material: manyrods.Material," in doc
+    assert "damping: manyrods.Damping = Damping.none()" in doc and " object at 0x" not in doc
+    assert " object at 0x" not in manyrods.Rod.polyline.__doc__
+
+
 # ---- views ------------------------------------------------------------------------------
 
 
@@ -278,7 +322,9 @@ def test_bad_input_raises_value_error_with_the_library_message():
     with pytest.raises(ValueError, match="precision"):
         manyrods.Batch([cantilever()], precision="half")
     with pytest.raises(ValueError, match=r"rod 0 .*material\.density"):
-        manyrods.Batch([manyrods.Rod.straight([0, 0, 0], [0, 0, 1], 1.0, 4, section=manyrods.Section.circle(0.01))])
+        massless = manyrods.Material(density=0, youngs_modulus=1e6, poisson_ratio=0.3)
+        manyrods.Batch([manyrods.Rod.straight([0, 0, 0], [0, 0, 1], 1.0, 4, section=manyrods.Section.circle(0.01),
+                                              material=massless)])
     b = manyrods.Batch([cantilever()])
     with pytest.raises(ValueError, match="dt"):
         b.step(float("nan"))
@@ -293,7 +339,62 @@ def test_a_blow_up_raises_non_finite_error_naming_where():
     rod.velocities = v
     b = manyrods.Batch([rod])
     with pytest.raises(manyrods.NonFiniteError, match=r"rod 0"):
-        b.step(100 * b.stable_dt()["elastic"], count=2000)
+        # 100 x the stable limit: refused by the step-size guard unless forced
+        b.step(100 * b.stable_dt()["elastic"], count=2000, force_dt=True)
+
+
+def test_the_step_size_guard_refuses_a_step_above_the_stable_limit_unless_forced():
+    # The guard of `manyrods run` (docs/scenes.md "The step-size guard"):
+    # stable_dt() is a dict, its "elastic" entry the limit of what the batch
+    # integrates explicitly; a longer step is refused with the limit, the safe
+    # value (0.9 x the limit) and the way out (force_dt), before any step.
+    b = manyrods.Batch([cantilever()])
+    sd = b.stable_dt()
+    assert isinstance(sd, dict) and sd["elastic"] > 0
+    limit = sd["elastic"]
+    before = b.state_hash()
+    for call in (lambda: b.step(50 * limit), lambda: b.step(50 * limit, count=10),
+                 lambda: b.advance(1.0, dt=50 * limit)):
+        with pytest.raises(ValueError) as e:
+            call()
+        msg = str(e.value)
+        assert "force_dt" in msg, msg
+        assert f"{limit:.4g}" in msg and f"{0.9 * limit:.4g}" in msg, msg  # the limit and the safe value
+    assert b.steps == 0 and b.state_hash() == before  # refused before stepping
+    b.step(limit)  # at the limit: allowed
+    b.step(b.dt, count=10)  # Batch.dt = 0.9 x the limit
+    assert b.steps == 11
+    # forced, it runs: one step of a rod at rest stays finite ...
+    b.step(50 * limit, force_dt=True)
+    assert b.steps == 12 and np.all(np.isfinite(b.node_position))
+    b.advance(2 * 50 * limit, dt=50 * limit, force_dt=True)
+    assert b.steps == 14
+    # ... and a swinging rod blows up within a few steps: NonFiniteError
+    rod = cantilever()
+    v = np.zeros((rod.elements + 1, 3))
+    v[:, 0] = np.linspace(0, 1.0, rod.elements + 1)
+    rod.velocities = v
+    swinging = manyrods.Batch([rod])
+    with pytest.raises(manyrods.NonFiniteError):
+        swinging.step(50 * limit, count=200, force_dt=True)
+
+
+def test_scene_run_and_sweep_keep_the_guard_and_take_force_dt(tmp_path):
+    text = open(CANTILEVER).read().replace('dt = "auto"', "dt = 2e-4", 1)  # above the 1.4e-4 s limit
+    s = manyrods.parse_scene(text, "coarse.toml")
+    with pytest.raises(ValueError, match="stable limit"):
+        s.run(str(tmp_path / "a.h5"), duration=0.01)
+    assert s.run(str(tmp_path / "b.h5"), duration=0.01, force_dt=True)["steps"] == 50
+    vary = ["rods.0.damping.tau_extension=0.02,0.03"]
+    with pytest.raises(ValueError, match="stable limit"):
+        s.sweep(vary, str(tmp_path / "c.h5"), duration=0.01)
+    assert s.sweep(vary, str(tmp_path / "d.h5"), duration=0.01, force_dt=True)["run"]["steps"] == 50
+    # a batch of it steps only when forced too
+    b = s.build_batch()
+    with pytest.raises(ValueError, match="force_dt"):
+        b.step(2e-4)
+    b.step(2e-4, count=5, force_dt=True)
+    assert b.steps == 5
 
 
 # ---- the GIL and Ctrl-C -----------------------------------------------------------------------
@@ -459,3 +560,119 @@ def test_two_batches_of_one_scene_are_driven_apart(tmp_path):
     b.step(1e-4, 100)
     assert a.node_position[0, a.node_range(0).start] == pytest.approx(0.01, abs=1e-14)
     assert b.node_position[0, b.node_range(0).start] == 0.0
+
+
+# 120° about (1, 1, -1)/√3 as a rotation matrix by Rodrigues' formula, an
+# independent reference for the quaternion (w, x, y, z) = (cos 60°, sin 60° n) =
+# (0.5, 0.5, 0.5, -0.5); its entries are 0 and ±1, exact after rounding.
+def rodrigues(axis, angle):
+    n = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
+    return np.cos(angle) * np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * np.outer(n, n)
+
+
+def test_a_driver_pose_as_a_matrix_nine_numbers_or_a_quaternion_drives_a_root_identically():
+    exact = rodrigues([1, 1, -1], 2 * math.pi / 3)
+    R = np.rint(exact)
+    assert np.abs(R - exact).max() < 1e-15
+    q = [0.5, 0.5, 0.5, -0.5]  # (w, x, y, z)
+
+    def driven(**pose):
+        rod = cantilever()
+        rod.root_driver = "hand"
+        b = manyrods.Batch([rod], gravity=[0, 0, -9.81])
+        b.set_driver_pose("hand", translation=[0.01, 0, 0.02], time=0.02, **pose)
+        b.step(1e-4, 300)
+        return b
+
+    ref = driven(rotation=R)
+    hashes = {ref.state_hash()}
+    for form in (R.tolist(), R.ravel(), R.ravel().tolist(), tuple(R.ravel()), q, np.array(q), tuple(q),
+                 [1.0000000001 * c for c in q]):  # a unit quaternion within 1e-6 is normalized
+        hashes.add(driven(rotation=form).state_hash())
+    assert len(hashes) == 1
+    # the scalar comes first: (x, y, z, w) order, or the inverse rotation, is another motion
+    assert driven(rotation=[-0.5, 0.5, 0.5, 0.5]).state_hash() != ref.state_hash()
+    assert driven(rotation=R.T).state_hash() != ref.state_hash()
+    # and the root went where R and the translation put it: x0 = 0, so at the translation
+    np.testing.assert_allclose(ref.node_position[:, ref.node_range(0).start], [0.01, 0, 0.02], atol=1e-15)
+
+
+def test_a_driver_pose_is_validated():
+    rod = cantilever()
+    rod.root_driver = "hand"
+    b = manyrods.Batch([rod])
+    cases = [
+        (dict(rotation=np.diag([1.0, 1, -1])), r"not a proper rotation .*det = -1"),
+        (dict(rotation=1.01 * np.eye(3)), r"not a proper rotation \(\|R R\^T - I\| = 0\.020"),
+        (dict(rotation=[1, 0, 0, 0, 1, 0, 0, 0, math.nan]), "rotation: value 8 is not finite"),
+        (dict(rotation=[2.0, 0, 0, 0]), r"quaternion \(w, x, y, z\) must have unit norm .*got \|q\| = 2"),
+        (dict(rotation=[1.0, 0, 0]), r"3 x 3 matrix, 9 numbers .* or a quaternion .*got shape \(3,\)"),
+        (dict(rotation=np.eye(4)), r"got shape \(4, 4\)"),
+        (dict(rotation="identity"), "rotation: not an array of numbers"),
+        (dict(translation=[0, math.inf, 0]), "translation: component 1 is not finite"),
+        (dict(pivot=[0, 0, math.nan]), "pivot: component 2 is not finite"),
+        (dict(pivot=[0, 0]), "pivot: needs 3 values"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=message):
+            b.set_driver_pose("hand", time=1.0, **kwargs)
+
+
+def test_a_rotation_about_a_pivot_keeps_the_pivot_in_place():
+    # Two rods driven by one motion: one rooted at the pivot p, one at the
+    # origin. The pose x -> R (x - p) + p with a quarter turn about z leaves p
+    # where it is and carries the origin to R (0 - p) + p. During the move
+    # the rotation turns along the shortest arc and the pivot's image moves on
+    # a straight line, here from p to p: the pivot stays in place all along,
+    # and the other root turns on the circle about it (radius |p_xy|).
+    p = np.array([0.1, -0.05, 0.2])
+    section = manyrods.Section.rectangle(0.01, 0.01)
+    material = manyrods.Material(density=1000, youngs_modulus=1e6, poisson_ratio=0.3)
+    rods = [manyrods.Rod.straight(start, [0, 0, 1], 0.3, 16, normal=[1, 0, 0], section=section, material=material)
+            for start in (p.tolist(), [0, 0, 0])]
+    for r in rods:
+        r.root_driver = "hand"
+    b = manyrods.Batch(rods)
+    Rz = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    b.set_driver_pose("hand", rotation=Rz, pivot=p, time=0.01)
+    radius = np.hypot(p[0], p[1])
+    for _ in range(10):  # during the move
+        b.step(1e-4, 10)
+        np.testing.assert_allclose(b.node_position[:, b.node_range(0).start], p, rtol=0, atol=1e-15)
+        other = b.node_position[:, b.node_range(1).start]
+        assert np.hypot(other[0] - p[0], other[1] - p[1]) == pytest.approx(radius, rel=1e-12)
+        assert other[2] == pytest.approx(0, abs=1e-15)
+    assert b.time == pytest.approx(0.01, abs=1e-15)
+    for _ in range(2):  # at the pose, and held there
+        np.testing.assert_allclose(b.node_position[:, b.node_range(0).start], p, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(b.node_position[:, b.node_range(1).start], Rz @ (0 - p) + p, rtol=0, atol=1e-15)
+        b.step(1e-4, 50)
+    # the same pose without a pivot turns about the origin: the origin stays, p moves
+    c = manyrods.Batch(rods)
+    c.set_driver_pose("hand", rotation=Rz, time=0.01)
+    c.advance(0.01, dt=1e-4)
+    np.testing.assert_allclose(c.node_position[:, c.node_range(1).start], [0, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(c.node_position[:, c.node_range(0).start], Rz @ p, atol=1e-15)
+
+
+# ---- output files with contact ------------------------------------------------------------
+
+
+def test_read_output_of_a_run_with_contact_has_the_contact_records(tmp_path):
+    # tools/scenes/cable_pile.toml: cables of radius 5 mm dropped from 5 cm
+    # onto a floor (and each other) reach it after sqrt(2 × 0.045 m / g) =
+    # 0.096 s; 0.12 s with frames every 0.02 s gives 7 frames, the last in
+    # contact.
+    scene = manyrods.load_scene(os.path.join(SCENES, "cable_pile.toml"))
+    res = scene.run(str(tmp_path / "pile.h5"), duration=0.12)
+    out = manyrods.read_output(str(tmp_path / "pile.h5"))
+    frames = len(out["time"])
+    assert frames == res["frames"] == 7
+    e, c = out["energy"], out["contact"]
+    assert sorted(e) == sorted(["kinetic", "elastic", "potential", "dissipated", "dissipation_rate", "contact_work"])
+    assert sorted(c) == ["count", "max_penetration"]
+    for v in list(e.values()) + list(c.values()):
+        assert len(v) == frames
+    assert c["count"][0] == 0 and e["contact_work"][0] == 0
+    assert c["count"][-1] > 0 and c["max_penetration"][-1] >= 0

@@ -159,12 +159,30 @@ RodSpec RodSpec::polyline(std::vector<Vec3> nodes, std::vector<Mat3> frames) {
   return s;
 }
 
+Vec3 RodSpec::normal_across(const Vec3& direction) {
+  int a = 0;
+  for (int i = 1; i < 3; ++i)
+    if (std::abs(direction[i]) < std::abs(direction[a])) a = i;
+  Vec3 n{0, 0, 0};
+  n[a] = 1;
+  return n;
+}
+
 std::vector<Mat3> RodSpec::parallel_transport_frames(const std::vector<Vec3>& nodes,
                                                      const Vec3& first_normal) {
   std::vector<Mat3> frames;
   if (nodes.size() < 2) return frames;
-  E3 d1 = to_eigen(first_normal);
+  for (std::size_t e = 0; e + 1 < nodes.size(); ++e)
+    if (!((to_eigen(nodes[e + 1]) - to_eigen(nodes[e])).norm() > 0))
+      fail("nodes " + std::to_string(e) + " and " + std::to_string(e + 1) + " coincide at " + vec_str(nodes[e]) +
+           ": element " + std::to_string(e) + " has no length");
   E3 t_prev = (to_eigen(nodes[1]) - to_eigen(nodes[0])).normalized();
+  if (!finite(first_normal)) fail("first_normal = " + vec_str(first_normal) + ": not finite");
+  const bool chosen = to_eigen(first_normal).norm() == 0;
+  E3 d1 = to_eigen(chosen ? normal_across(from_eigen(t_prev)) : first_normal);
+  if (!((d1 - d1.dot(t_prev) * t_prev).norm() > 1e-9 * d1.norm()))
+    fail("first_normal = " + vec_str(first_normal) + " is parallel to the first element (along " +
+         vec_str(from_eigen(t_prev)) + "): give a normal across the rod, or (0, 0, 0) to have one chosen");
   for (std::size_t e = 0; e + 1 < nodes.size(); ++e) {
     const E3 t = (to_eigen(nodes[e + 1]) - to_eigen(nodes[e])).normalized();
     // rotate d1 by the minimal rotation taking t_prev to t

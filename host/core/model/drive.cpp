@@ -137,16 +137,26 @@ Pose HostMotion::at(double t) const {
   const Eigen::Quaterniond q0(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p0_.rotation.data()));
   const Eigen::Quaterniond q1(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p1_.rotation.data()));
   const EM3 r = q0.slerp(a, q1).toRotationMatrix();
+  // the pivot's image X = R c + T on the line from its image at t0 to the
+  // one at t1; T = X − R c (c = 0: T linear)
+  const E3 c = to_eigen(pivot_);
+  const E3 x0 = EM3(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p0_.rotation.data())) * c +
+                to_eigen(p0_.translation);
+  const E3 x1 = EM3(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p1_.rotation.data())) * c +
+                to_eigen(p1_.translation);
+  const E3 tr = (1 - a) * x0 + a * x1 - r * c;
   Pose p;
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) p.rotation[3 * i + j] = r(i, j);
-    p.translation[i] = (1 - a) * p0_.translation[i] + a * p1_.translation[i];
+    p.translation[i] = tr[i];
   }
   return p;
 }
 
-void HostMotion::set_target(double now, const Pose& target, double until) {
+void HostMotion::set_target(double now, const Pose& target, double until, const Vec3& pivot) {
   auto bad = [&](const std::string& what) { throw InputError("driver \"" + name_ + "\": " + what); };
+  for (double v : pivot)
+    if (!std::isfinite(v)) bad("the pivot is not finite");
   for (double v : target.rotation)
     if (!std::isfinite(v)) bad("the rotation is not finite");
   for (double v : target.translation)
@@ -167,6 +177,7 @@ void HostMotion::set_target(double now, const Pose& target, double until) {
   p1_ = t;
   t0_ = now;
   t1_ = until;
+  pivot_ = pivot;
 }
 
 RootStep root_step(const RootMotion& motion, double t, double h) {

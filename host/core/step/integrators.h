@@ -118,7 +118,7 @@ bool prepare_solve(RodBatch<T>& b, const Exec& ex) {
 // (rod–rod contact): then each step runs its stages on every segment up to
 // the contact stage, the contact stage on the whole batch, and the rest.
 template <Terms kT, Viscous kV, class T>
-void step_n(RodBatch<T>& b, T dt, std::int64_t count, const Exec& ex) {
+void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, const Exec& ex) {
 #ifndef MANYRODS_ISA_VARIANT  // the build of the step for the CPU (host/core/isa/isa_table.h)
   constexpr int kSlot = kV == Viscous::implicit ? isa::slot(isa::kStepNTerms, kT) : -1;
   if constexpr (kSlot >= 0)
@@ -196,7 +196,7 @@ struct Pefrl {
 // next stage's (so the kicks see the root where it is at their time and
 // PEFRL keeps its order; tests/test_drive.cpp).
 template <Terms kT, Viscous kV, int kEulerOrder, class T>
-void step_pefrl(RodBatch<T>& b, T dt, const Exec& ex) {
+void step_pefrl(RodBatch<T>& b, std::type_identity_t<T> dt, const Exec& ex) {
 #ifndef MANYRODS_ISA_VARIANT
   constexpr int kSlot = kV == Viscous::implicit && kEulerOrder == 4 ? isa::slot(isa::kPefrlTerms, kT) : -1;
   if constexpr (kSlot >= 0)
@@ -307,7 +307,7 @@ template <class T>
 // NaNs have spread along the whole rod, and the first non-finite entry no
 // longer says where the trouble began.
 template <Terms kT, Viscous kV, Integrator kI, class T>
-void advance(RodBatch<T>& b, T dt, std::int64_t steps, const Exec& ex, const AdvanceOptions& opt) {
+void advance(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t steps, const Exec& ex, const AdvanceOptions& opt) {
   if (steps < 0) throw std::invalid_argument("advance: steps must be >= 0");
   if (opt.check_every < 1) throw std::invalid_argument("advance: check_every must be >= 1");
   if (const NonFinite nf = find_non_finite(b); nf.found) detail::throw_non_finite(b, nf, dt);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "manyrods/h5io.h"
+#include "manyrods/runner.h"
 #include "manyrods/scene.h"
 
 namespace manyrods::usd {
@@ -232,6 +233,8 @@ void write_colliders(std::ostream& out, const h5::Output& o, const std::vector<s
 
 ExportResult export_usd(const std::string& in, const std::string& usd, int every) {
   if (every < 1) throw h5::H5Error(usd + ": every = " + std::to_string(every) + " (must be >= 1)");
+  scene::check_extension(usd, {".usda", ".usd"}, "--usd", "USD ASCII (BasisCurves)");
+  scene::check_not_input(usd, {in}, "--usd");
   const h5::Reader rd(in);
   const h5::Output& o = rd.output();
   if (rd.frames() == 0) throw h5::H5Error(in + ": no frames to export");

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sstream>
 #include <cmath>
 #include <string>
 
@@ -111,11 +112,11 @@ int AnyBatch::find_driver(const std::string& name) const {
                    (known.empty() ? std::string("none") : known) + ")");
 }
 
-void AnyBatch::set_driver_pose(int driver, const Pose& pose, double until) {
+void AnyBatch::set_driver_pose(int driver, const Pose& pose, double until, const Vec3& pivot) {
   if (driver < 0 || driver >= driver_count())
     throw InputError("driver " + std::to_string(driver) + " out of range (the batch has " +
                      std::to_string(driver_count()) + " host motions)");
-  host_motions_[std::size_t(driver)]->set_target(time(), pose, until);
+  host_motions_[std::size_t(driver)]->set_target(time(), pose, until, pivot);
 }
 
 double AnyBatch::scene_dt() const {
@@ -123,11 +124,29 @@ double AnyBatch::scene_dt() const {
   return 0.9 * stable_dt().elastic;
 }
 
+void AnyBatch::check_dt(double dt) const {
+  if (dt <= checked_dt_) return;
+  const StableDt sd = stable_dt();
+  if (std::isfinite(sd.elastic) && sd.elastic > 0 && dt > sd.elastic) {
+    const bool stiff = visit([](const auto& b) { return b.any_stiff(); });
+    std::ostringstream os;
+    os.precision(4);
+    os << "step: dt = " << dt << " s is " << dt / sd.elastic << " x this batch's stable limit " << sd.elastic
+       << " s (stable_dt of what it integrates explicitly" << (stiff ? "; stiff rods: bending" : "")
+       << "); it would blow up. Step at or below the limit (0.9 x the limit = " << 0.9 * sd.elastic
+       << " s), or force the step to run it anyway (Python: force_dt=True; C: mr_batch_set_force_dt; "
+          "docs/scenes.md \"The step-size guard\")";
+    throw InputError(os.str());
+  }
+  checked_dt_ = dt;
+}
+
 std::int64_t AnyBatch::step(double dt, std::int64_t count, int threads, const std::function<bool()>& keep_going,
-                            double check_s) {
+                            double check_s, bool force_dt) {
   if (!(dt > 0) || !std::isfinite(dt)) throw InputError("step: dt must be > 0 and finite (got " + std::to_string(dt) + ")");
   if (count < 0) throw InputError("step: count must be >= 0 (got " + std::to_string(count) + ")");
   if (threads < 1) throw InputError("step: threads must be >= 1 (got " + std::to_string(threads) + ")");
+  if (!force_dt && !scene_->sim.force_dt) check_dt(dt);
   const Exec ex{threads, nullptr};
   const auto advance = [&](std::int64_t n) {
     visit([&](auto& b) {

@@ -572,6 +572,7 @@ class SceneRun {
 
 namespace {
 RunResult run_from(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart, StaticCache* cache = nullptr) {
+  check_h5_output(opt.output, s.inputs, "output");
   if (s.sim.precision == Precision::float32) return SceneRun<float>(s, opt, restart, cache).run();
   return SceneRun<double>(s, opt, restart, cache).run();
 }

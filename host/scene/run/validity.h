@@ -73,15 +73,18 @@ class ValidityMonitor {
     for (int k = 0; k < 3; ++k) {
       const Kind& x = kinds_[k];
       if (x.count == 0) continue;
-      char buf[512];
+      char buf[1024];
       if (k == kEnergy)
         std::snprintf(buf, sizeof buf, "energy grew without a source by up to %.3g x the largest kinetic + elastic "
-                      "energy (limit %.3g), first at t = %.6g s",
+                      "energy (limit %.3g), first at t = %.6g s: too coarse or unstable a step "
+                      "(limit: simulation.validity.energy_growth)",
                       x.worst, lim_.energy_growth, x.first_time);
       else
-        std::snprintf(buf, sizeof buf, "%s above %.3g in %d of %d rods, worst %.3g (%s at t = %.6g s)",
+        std::snprintf(buf, sizeof buf, "%s above %.3g in %d of %d rods, worst %.3g (%s at t = %.6g s): %s",
                       k == kStrain ? "strain" : "element stretch/shear", k == kStrain ? lim_.strain : lim_.stretch,
-                      x.rods, rods, x.worst, x.worst_where.c_str(), x.worst_time);
+                      x.rods, rods, x.worst, x.worst_where.c_str(), x.worst_time,
+                      k == kStrain ? "beyond the linear law's small strains (limit: simulation.validity.strain)"
+                                   : "outside any rod model (limit: simulation.validity.stretch)");
       lines.push_back(buf);
     }
     return lines;
@@ -106,17 +109,31 @@ class ValidityMonitor {
         rod < 0 ? std::string("the batch") : "rod " + std::to_string(rod) + " ('" + b.rods[rod].name + "') " + where;
     if (k.count == 0) {
       k.first_time = t;
-      char buf[512];
+      char buf[1024];
+      // two lines: what the limit protects, then how to judge the run and
+      // where the limit is set (docs/scenes.md "The validity monitor")
       if (kind == kEnergy)
         std::snprintf(buf, sizeof buf,
                       "validity: at t = %.6g s the energy has grown by %.3g x the largest kinetic + elastic energy "
-                      "(limit %.3g) with no source of work: the step is too coarse or unstable",
+                      "(limit %.3g) with no source of work: the step is too coarse or unstable\n"
+                      "  to judge: rerun with half the step (halve dt_safety, or dt): if the growth shrinks, it was "
+                      "the step; the limit is simulation.validity.energy_growth",
                       t, value, lim_.energy_growth);
+      else if (kind == kStrain)
+        std::snprintf(buf, sizeof buf,
+                      "validity: at t = %.6g s %s has strain %.3g (limit %.3g): beyond the small strains of the "
+                      "linear Kelvin-Voigt law (large rotations are fine, large strains are not)\n"
+                      "  to judge: rerun with half the step (dt_safety) or more elements: a peak that goes away was "
+                      "numerical; one that stays is real: if the material is linear that far, raise "
+                      "simulation.validity.strain",
+                      t, at.c_str(), value, lim_.strain);
       else
-        std::snprintf(buf, sizeof buf, "validity: at t = %.6g s %s has %s %.3g (limit %.3g)%s", t, at.c_str(),
-                      kind == kStrain ? "strain" : "stretch/shear |sigma|", value,
-                      kind == kStrain ? lim_.strain : lim_.stretch,
-                      kind == kStrain ? ": beyond the small strains of the linear Kelvin-Voigt law" : "");
+        std::snprintf(buf, sizeof buf,
+                      "validity: at t = %.6g s %s has stretch/shear |sigma| %.3g (limit %.3g): an element this "
+                      "deformed is outside any rod model (an unstable step, or contact forcing it)\n"
+                      "  to judge: rerun with half the step (halve dt_safety; stiff = true for hair): if it goes away, "
+                      "it was the step; the limit is simulation.validity.stretch",
+                      t, at.c_str(), value, lim_.stretch);
       out.push_back(buf);
     }
     ++k.count;

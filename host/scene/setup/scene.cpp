@@ -43,6 +43,8 @@ struct Ctx {
   std::set<const toml::node*> overridden;  // nodes set by --vary (no source position)
   // motion = "host" tables by name, one HostMotion per name (Scene::host_motions)
   mutable std::vector<std::shared_ptr<HostMotion>> host_motions;
+  // the files a scene reads besides itself (Scene::inputs)
+  mutable std::vector<std::string> inputs;
 
   std::string where(const toml::node& n) const {
     const auto& b = n.source().begin;
@@ -574,6 +576,7 @@ Collider parse_collider(const Ctx& ctx, const toml::table& ct, std::size_t i) {
     const std::string file = t.text("file");
     const int res = int(t.has("resolution") ? t.integer("resolution", 8, 512) : 64);
     const std::string full = !file.empty() && file[0] == '/' ? file : scene_dir(ctx.source) + file;
+    ctx.inputs.push_back(full);
     try {
       c.grid = load_mesh_grid(full, res);
     } catch (const InputError& e) {
@@ -1179,6 +1182,7 @@ void parse_curves(const Table& g, Pending& p) {
   p.curve_elements = t.has("elements") ? int(t.integer("elements", 0, 1 << 30)) : 0;
   const double scale = t.has("scale") ? t.positive("scale") : 1.0;
   const std::string full = !file.empty() && file[0] == '/' ? file : scene_dir(g.ctx.source) + file;
+  g.ctx.inputs.push_back(full);
   try {
     p.curves = read_curves(full);
   } catch (const InputError& e) {
@@ -1294,7 +1298,7 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
 }  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& source, const std::vector<Override>& overrides) {
-  Ctx ctx{source, {}, {}};
+  Ctx ctx{source, {}, {}, {}};
   toml::table root = parse_toml(text, source);
   for (const Override& o : overrides) apply_override(root, o, ctx);
 
@@ -1338,6 +1342,9 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
     sc.contact.rod_has_friction.push_back(g.has_friction ? 1 : 0);
   }
   sc.host_motions = std::move(ctx.host_motions);
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(source, ec)) sc.inputs.push_back(source);
+  sc.inputs.insert(sc.inputs.end(), ctx.inputs.begin(), ctx.inputs.end());
   return sc;
 }
 

@@ -266,6 +266,7 @@ Sweep make_sweep(const std::string& text, const std::string& source, std::vector
     }
     if (i == 0) {
       sw.scene.sim = s.sim;
+      sw.scene.inputs = s.inputs;
       sw.scene.observables = s.observables;  // (the same in every variation: only numbers are varied)
       for (const std::string& col : observable_columns(s.observables))
         for (const std::vector<std::string>* taken : {&sweep_summary_names(), &keys})
@@ -886,9 +887,10 @@ ChunkedSweep run_sweep_chunked(const std::string& text, const std::string& sourc
     throw SceneError("sweep: --until does not apply to a chunked sweep (Ctrl-C stops it; run it again to continue)");
   if (shards.ranks < 1 || shards.rank < 0 || shards.rank >= shards.ranks) throw SceneError("sweep: bad shard rank");
   ChunkedSweep out;
+  const Scene base = parse_scene(text, source);
+  check_h5_output(opt.output, base.inputs, "output");
   Chunks c{text, source, names, points, std::size_t(chunk), shards, out, {}, {}, {}};
   plan_chunks(c, opt.output);
-  const Scene base = parse_scene(text, source);
   // (the static states the dt pass solves are kept for the chunks' runs, up
   // to 1 GiB: 4.9 kB per variation of the seed cantilever)
   StaticCache statics;
