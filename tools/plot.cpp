@@ -22,6 +22,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -352,7 +353,7 @@ Vec3 place(const Pose& P, const Vec3& x) {
 Polyline circle(Point c, double r) {
   Polyline l;
   for (int i = 0; i <= 72; ++i) {
-    const double a = 2 * M_PI * i / 72;
+    const double a = 2 * std::numbers::pi * i / 72;
     l.push_back({c[0] + r * std::cos(a), c[1] + r * std::sin(a)});
   }
   return l;
@@ -608,7 +609,7 @@ int key_width(const std::vector<std::vector<Series>>& lists, int char_px) {
 }
 
 // The margins that put the plot of the next `plot` command on area a.
-void place(std::ostream& gp, const Geometry& g, const Area& a) {
+void margins(std::ostream& gp, const Geometry& g, const Area& a) {
   auto x = [&](int px) { return double(px) / g.width; };
   auto y = [&](int px) { return 1 - double(px) / g.height; };
   gp << "set lmargin at screen " << x(a.left) << "\nset rmargin at screen " << x(a.left + a.width)
@@ -633,7 +634,7 @@ void picture(std::ostream& gp, const std::string& png, const std::string& title,
     a.insert(a.begin(), b.begin(), b.end());
     return a;
   };
-  place(gp, g, g.panels[0]);
+  margins(gp, g, g.panels[0]);
   if (!p.has_second) {
     gp << "set title " << quote(title + " — " + view_name(p.main, gravity)) << '\n';
     panel(gp, p, p.main, both(curves, main_extra));
@@ -643,7 +644,7 @@ void picture(std::ostream& gp, const std::string& png, const std::string& title,
   gp << "set title " << quote(view_name(p.main, gravity)) << '\n';
   panel(gp, p, p.main, both(curves, main_extra));
   gp << "set title " << quote(view_name(p.second, gravity)) << "\nunset key\n";
-  place(gp, g, g.panels[1]);
+  margins(gp, g, g.panels[1]);
   panel(gp, p, p.second, both(curves, second_extra));
   gp << "unset multiplot\n";
 }
@@ -762,29 +763,48 @@ void shapes_script(std::ostream& gp, const h5::Reader& rd, const std::string& in
   const std::string shown_what = std::to_string(shown.size()) + (int(shown.size()) < rods ? " of " + std::to_string(rods) : "") +
                                  (rods == 1 ? " rod" : " rods") + " (" + group_list(o, shown) + ")";
 
-  // the colliders in view w at time t, as series of a picture (`file`: their
-  // outlines, an index each; more than six: one index, one legend line)
-  auto collider_series = [&](const std::string& file, View w, double t, const Projection& pr) {
-    std::vector<Series> s;
+  // the colliders at time t as series of the views of pr (their outlines in
+  // <stem>_<view>.dat, an index each; more than six: one index, one legend
+  // line). The legend (the first view's) names each collider drawn in either
+  // view, and says so of one drawn in neither (a plane seen face-on).
+  using Views = std::pair<std::vector<Series>, std::vector<Series>>;
+  auto collider_series = [&](const std::string& stem, double t, const Projection& pr) {
+    Views s;
     if (sc.colliders.empty()) return s;
-    std::ofstream c(file);
-    c.precision(10);
     const std::string style = "lc rgb '#444444' lw 1.5";
-    const std::vector<Outline> all = outlines(sc.colliders, t, w, pr);
-    if (all.size() > 6) {
-      for (const Outline& x : all) write_lines(c, x.lines);
-      s.push_back({file, -1, false, style, std::to_string(all.size()) + " colliders at t = " + number(t) + " s"});
-      return s;
-    }
-    int index = 0;
-    for (const Outline& x : all) {
-      if (x.lines.empty()) {  // a legend line only
-        s.push_back({"", -1, false, style + " dt 3", x.name + ": not in this view"});
+    std::vector<Outline> in_view[2];
+    std::vector<int> index[2];
+    for (int k = 0; k < (pr.has_second ? 2 : 1); ++k) {
+      const View w = k ? pr.second : pr.main;
+      const std::string file = stem + "_" + w.name() + ".dat";
+      std::ofstream c(file);
+      c.precision(10);
+      in_view[k] = outlines(sc.colliders, t, w, pr);
+      std::vector<Series>& out = k ? s.second : s.first;
+      if (sc.colliders.size() > 6) {
+        for (const Outline& x : in_view[k]) write_lines(c, x.lines);
+        out.push_back({file, -1, false, style, std::to_string(sc.colliders.size()) + " colliders at t = " + number(t) + " s"});
         continue;
       }
-      write_lines(c, x.lines);
-      c << '\n';
-      s.push_back({file, index++, false, style, x.name});
+      int n = 0;
+      for (const Outline& x : in_view[k]) {
+        index[k].push_back(x.lines.empty() ? -1 : n);
+        if (x.lines.empty()) continue;
+        write_lines(c, x.lines);
+        c << '\n';
+        out.push_back({file, n++, false, style, x.name});
+      }
+    }
+    if (sc.colliders.size() > 6) return s;
+    s.first.clear();  // again, in the colliders' order, with the legend lines
+    for (std::size_t i = 0; i < sc.colliders.size(); ++i) {
+      const std::string& name = in_view[0][i].name;
+      if (index[0][i] >= 0)
+        s.first.push_back({stem + "_" + pr.main.name() + ".dat", index[0][i], false, style, name});
+      else if (pr.has_second && index[1][i] >= 0)
+        s.first.push_back({"", -1, false, style, name});
+      else
+        s.first.push_back({"", -1, false, style + " dt 3", name + ": not drawn (seen face-on, or out of view)"});
     }
     return s;
   };
@@ -798,10 +818,8 @@ void shapes_script(std::ostream& gp, const h5::Reader& rd, const std::string& in
                       "t = " + number(o.time[std::size_t(still[i])]) + " s"});
   }
   const std::string shapes_png = dir + "/shapes.png";
-  picture(gp, shapes_png, "rod shapes: " + shown_what, p, sc.gravity, curves,
-          collider_series(dir + "/colliders_" + p.main.name() + ".dat", p.main, t0, p),
-          p.has_second ? collider_series(dir + "/colliders_" + p.second.name() + ".dat", p.second, t0, p)
-                       : std::vector<Series>{});
+  const Views cs = collider_series(dir + "/colliders", t0, p);
+  picture(gp, shapes_png, "rod shapes: " + shown_what, p, sc.gravity, curves, cs.first, cs.second);
   made.push_back(shapes_png);
 
   // the animation: the first view, the first frame in grey under each frame
@@ -835,7 +853,7 @@ void shapes_script(std::ostream& gp, const h5::Reader& rd, const std::string& in
     gp << "reset\nset terminal gif animate delay 8 loop 0 optimize size " << g.width << ',' << g.height
        << " noenhanced font 'DejaVu Sans,9'\nset output " << quote(gif) << "\nset grid\nset clip two\n";
     key_at(gp, g);
-    place(gp, g, g.panels[0]);
+    margins(gp, g, g.panels[0]);
     for (std::size_t i = 0; i < anim.size(); ++i) {
       const double t = o.time[std::size_t(anim[i])];
       gp << "set title " << quote(shown_what + ", " + view_name(p.main, sc.gravity) + ": t = " + number(t) + " s") << '\n';
@@ -863,11 +881,10 @@ void shapes_script(std::ostream& gp, const h5::Reader& rd, const std::string& in
     s.push_back({sweep_dat, last, true, "lc rgb '#1f77b4' lw 2", lo});
     s.push_back({sweep_dat, last + 1, true, "lc rgb '#d62728' lw 2", hi});
     const std::string png = dir + "/sweep_shapes.png";
+    const Views cs = collider_series(dir + "/sweep_colliders", t_end, q);
     picture(gp, png,
             "sweep of " + varied(o) + ": least and most " + ends.column + ", at t = " + number(t_end) + " s", q,
-            sc.gravity, s, collider_series(dir + "/sweep_colliders_" + q.main.name() + ".dat", q.main, t_end, q),
-            q.has_second ? collider_series(dir + "/sweep_colliders_" + q.second.name() + ".dat", q.second, t_end, q)
-                         : std::vector<Series>{});
+            sc.gravity, s, cs.first, cs.second);
     made.push_back(png);
   }
 }

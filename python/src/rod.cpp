@@ -182,16 +182,6 @@ void bind_materials(nb::module_& m) {
 
 namespace {
 
-// The unit axis least aligned with d (a default normal for a rod along d).
-Vec3 least_aligned_axis(const Vec3& d) {
-  int a = 0;
-  for (int i = 1; i < 3; ++i)
-    if (std::abs(d[i]) < std::abs(d[a])) a = i;
-  Vec3 n{0, 0, 0};
-  n[a] = 1;
-  return n;
-}
-
 // r with the properties both named constructors take.
 RodSpec with_properties(RodSpec r, const manyrods::Section& section, const manyrods::Material& material,
                         const manyrods::Damping& damping, const std::string& root, const std::string& tip, bool stiff,
@@ -218,7 +208,7 @@ void bind_rod_factories(nb::class_<RodSpec>& c) {
           const std::string& root, const std::string& tip, bool stiff, const std::string& name) {
          require("straight", section, material);
          const Vec3 d = vec3(direction, "direction");
-         const Vec3 n = normal ? vec3(*normal, "normal") : least_aligned_axis(d);
+         const Vec3 n = normal ? vec3(*normal, "normal") : RodSpec::normal_across(d);
          if (!(elements >= 1)) throw manyrods::InputError("elements: must be >= 1 (got " + std::to_string(elements) + ")");
          return with_properties(RodSpec::straight(vec3(start, "start"), d, n, length, elements), *section, *material,
                                 damping, root, tip, stiff, name);
@@ -247,9 +237,9 @@ void bind_rod_factories(nb::class_<RodSpec>& c) {
             if (!frames.is_none()) {
               q = frames_of(array_of<Frames>(frames, 3, "frames", "(n, 3, 3)"), "frames");
             } else {
-              const Vec3 t{x[1][0] - x[0][0], x[1][1] - x[0][1], x[1][2] - x[0][2]};
+              // (a zero first normal: RodSpec::normal_across the first element)
               q = RodSpec::parallel_transport_frames(
-                  x, first_normal ? vec3(*first_normal, "first_normal") : least_aligned_axis(t));
+                  x, first_normal ? vec3(*first_normal, "first_normal") : Vec3{0, 0, 0});
             }
             return with_properties(RodSpec::polyline(std::move(x), std::move(q)), *section, *material, damping, root,
                                    tip, stiff, name);

@@ -347,7 +347,8 @@ double scene_dt(const Scene& s, const RodBatch<T>& b) {
        << " s (stable_dt of what it integrates explicitly" << (b.any_stiff() ? "; stiff rods: bending" : "")
        << "). Use dt = \"auto\" (0.9 x the limit = " << 0.9 * sd.elastic << " s"
        << (b.any_stiff() ? "; stiff rods that swing hard: dt_safety = 0.5" : "")
-       << "), a dt at or below the limit, or --force-dt to run it anyway (docs/scenes.md \"The step-size guard\")";
+       << "), a dt at or below the limit, or --force-dt to run it anyway (Python: force_dt=True; docs/scenes.md "
+          "\"The step-size guard\")";
     throw SceneError(os.str());
   }
   return frame_aligned_dt(dt, s.sim.output_interval);
