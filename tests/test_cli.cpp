@@ -926,6 +926,14 @@ TEST(Cli, NoCommandWritesOverItsOwnInput) {
   EXPECT_EQ(r.status, 2);
   EXPECT_TRUE(slurp(out) == results) << "the results were changed";
   EXPECT_TRUE(slurp(scene) == text) << "the scene was changed";
+  // plots into the folder of an input named as one of their files
+  fs::create_directories(path("own_plots"));
+  const std::string named = path("own_plots/tips.dat");
+  fs::copy_file(out, named, fs::copy_options::overwrite_existing);
+  r = cli("plot " + named + " --out-dir " + path("own_plots"));
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "which holds the input");
+  EXPECT_TRUE(slurp(named) == results) << "the plot's input was changed";
 }
 
 TEST(Cli, AKilledRunResumesToTheUninterruptedResultBitForBit) {

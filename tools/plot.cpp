@@ -919,6 +919,19 @@ void energy_data(const h5::Output& o, std::int64_t frames, const std::string& en
 
 int plot(const std::string& in, std::string dir) {
   if (dir.empty()) dir = fs::path(in).replace_extension("").string() + "_plots";
+  {  // every file the plots write into dir ends with one of these: the input must not be one
+    std::error_code ec;
+    const std::string ext = fs::path(in).extension().string();
+    const fs::path parent = fs::path(in).has_parent_path() ? fs::path(in).parent_path() : fs::path(".");
+    for (const char* e : {".dat", ".png", ".gif", ".gp", ".log"})
+      if (ext == e && fs::exists(dir, ec) && fs::equivalent(parent, dir, ec)) {
+        std::fprintf(stderr,
+                     "manyrods plot: %s: the plots write %s files into --out-dir %s, which holds the input; give "
+                     "another --out-dir (nothing was written)\n",
+                     in.c_str(), e, dir.c_str());
+        return 2;
+      }
+  }
   auto make_dir = [&] {
     std::error_code ec;
     fs::create_directories(dir, ec);
