@@ -526,7 +526,9 @@ std::vector<RodSpec> tuft(int count) {
   return rods;
 }
 
-std::uint64_t tuft_hash(int threads, std::int64_t* contacts = nullptr, double skin = 0, std::int64_t* rebuilds = nullptr) {
+// (capacity: the lists' first capacity; growths: how often they grew, and to what)
+std::uint64_t tuft_hash(int threads, std::int64_t* contacts = nullptr, double skin = 0, std::int64_t* rebuilds = nullptr,
+                        int capacity = 256, std::pair<std::int64_t, int>* growths = nullptr) {
   RodBatch<double> b = build_batch<double>(tuft(12), {0, 0, -kG});
   ContactSpec spec;
   Collider head;
@@ -538,7 +540,7 @@ std::uint64_t tuft_hash(int threads, std::int64_t* contacts = nullptr, double sk
   spec.rod_rod = spec.self = true;
   spec.friction = {0.3, 0.2};
   spec.skin = skin;
-  spec.capacity = 256;  // room for every pair at the widest skin
+  spec.capacity = capacity;  // 256: room for every pair at the widest skin
   set_contact(b, spec);
   // one strand flung sideways: its elements reach far (the broad phase's
   // "wide" elements, docs/contact.md)
@@ -551,6 +553,7 @@ std::uint64_t tuft_hash(int threads, std::int64_t* contacts = nullptr, double sk
   }
   if (contacts) *contacts = seen;
   if (rebuilds) *rebuilds = contact_stats(b).rebuilds;
+  if (growths) *growths = {b.contact.list_growths, b.contact.capacity};
   return state_hash(b);
 }
 
@@ -639,15 +642,31 @@ TEST(Contact, BadInputIsNamed) {
   EXPECT_NE(error_of([&] { step<kColliders>(none, 1e-4); }).find("set_contact"), std::string::npos);
 }
 
-TEST(Contact, NeighbourListOverflowIsAnErrorNotADroppedContact) {
+TEST(Contact, NeighbourListsGrowToTheSameStepAndStopAtTheirLimitWithAnError) {
+  // Lists that start at one candidate grow (doubling, or to the longest
+  // list) whenever one overflows, and are gathered again: the lists, so the
+  // step, are those of a capacity that never overflows (the reference:
+  // capacity 256, bit for bit), for any thread count.
+  const std::uint64_t roomy = tuft_hash(1);
+  std::pair<std::int64_t, int> grown{0, 0};
+  EXPECT_EQ(tuft_hash(1, nullptr, 0, nullptr, 1, &grown), roomy);
+  EXPECT_GE(grown.first, 1);
+  EXPECT_GT(grown.second, 1);
+  EXPECT_EQ(tuft_hash(2, nullptr, 0, nullptr, 1), roomy);
+  // beyond max_capacity: an error naming the element, its count and the key
   RodBatch<double> b = build_batch<double>(tuft(12), {0, 0, -kG});
   ContactSpec spec;
   spec.rod_rod = true;
   spec.capacity = 1;
+  spec.max_capacity = 1;
   spec.skin = 0.01;
   const std::string e = error_of([&] { set_contact(b, spec); });  // the first lists are built here
   EXPECT_NE(e.find("rod-rod candidates"), std::string::npos) << e;
-  EXPECT_NE(e.find("capacity"), std::string::npos) << e;
+  EXPECT_NE(e.find("more than max_capacity = 1"), std::string::npos) << e;
+  EXPECT_NE(e.find("[contact] max_capacity"), std::string::npos) << e;
+  spec.max_capacity = 0;
+  EXPECT_NE(error_of([&] { set_contact(b, spec); }).find("max_capacity (0) must be >= capacity (1)"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -546,6 +546,7 @@ TEST(Scene, ContactKeysReachTheSpec) {
   EXPECT_FALSE(s.contact.rod_rod);
   EXPECT_EQ(s.contact.hardness, 3.0);
   EXPECT_EQ(s.contact.capacity, 8);
+  EXPECT_EQ(s.contact.max_capacity, 4096);  // the default
   ASSERT_EQ(s.contact.rod_friction.size(), 1u);
   EXPECT_TRUE(s.contact.rod_has_friction[0]);
   EXPECT_EQ(s.contact.rod_friction[0].kinetic_coefficient, 0.25);
@@ -564,6 +565,9 @@ TEST(SceneErrors, ContactKeys) {
   expect_error(base + "\n[[colliders]]\nkind = \"mesh\"\nfile = \"no-such-head.obj\"\n",
                {"colliders.0.file", "no-such-head.obj"});
   expect_error(base + "\n[contact]\ncapacity = 0\n", {"contact.capacity"});
+  expect_error(base + "\n[contact]\ncapacity = 128\nmax_capacity = 100\n",
+               {"contact.max_capacity", "must be >= capacity (128)"});
+  expect_error(base + "\n[contact]\ncapacity = 8192\n", {"contact.capacity", "must be >= capacity (8192)"});
   expect_error(scene_text("", "integrator = \"pefrl\"\n") + "\n[contact]\nrod_rod = true\n",
                {"Position Verlet only"});
   // a rod that starts inside a collider: named with its node, at build time

@@ -72,6 +72,9 @@ void summary_line(const RunResult& r, const std::string& out) {
   if (r.max_contacts > 0 || r.max_penetration > 0)
     std::fprintf(stderr, "manyrods: contact: up to %lld contacts in a frame, deepest overlap %.3g m\n",
                  (long long)r.max_contacts, r.max_penetration);
+  if (r.list_growths > 0)
+    std::fprintf(stderr, "manyrods: contact: the neighbour lists grew %lld times, to %d candidates per element\n",
+                 (long long)r.list_growths, r.list_capacity);
   for (const h5::Column& c : r.observables)
     std::fprintf(stderr, "manyrods: observable %s = %.10g\n", c.name.c_str(), c.values[0]);
   for (const std::string& v : r.validity) std::fprintf(stderr, "manyrods: validity: %s\n", v.c_str());

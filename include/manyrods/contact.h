@@ -91,10 +91,14 @@ struct ContactSpec {
   double hardness = 4;
   double damping_ratio = 0;  // ζ ≥ 0, added to backward Euler's own damping
   // rod–rod broad phase: the margin each element's list reaches beyond its
-  // contact range (m; 0: half its contact radius, docs/contact.md)
-  // and the candidate capacity per element (an overflow is an error).
+  // contact range (m; 0: half its contact radius, docs/contact.md), the
+  // candidate capacity per element the lists start with, and the most they
+  // grow to: a list that finds more candidates than the capacity grows them
+  // all (the same lists, so the same step, as with that capacity from the
+  // start); beyond max_capacity, or the machine's memory, it is an error.
   double skin = 0;
   int capacity = 64;
+  int max_capacity = 4096;
 };
 
 // ---- the batch's contact data (RodBatch::contact; set_contact fills it) ----------
@@ -139,6 +143,8 @@ struct ContactData {
   std::vector<int> rod_near;  // [rods] elements |i − j| ≤ this apart touch at the tight-loop chord (kernels/contact.h near_contact_distance)
   // rod–rod broad phase (docs/contact.md "Finding rod–rod contacts")
   Array<int> neighbours;               // [slots × capacity] candidate partner slots of element k, in order
+  int capacity = 0;                    // the lists' capacity now (spec.capacity, grown up to spec.max_capacity)
+  std::int64_t list_growths = 0;       // times the lists grew
   std::vector<int> cell_start;  // the grid: cell i holds cell_slot[cell_start[i] .. cell_start[i+1])
   std::vector<int> cell_slot;
   double max_radius = 0;  // m: the rods' largest contact radius
@@ -152,6 +158,8 @@ struct ContactStats {
   double max_penetration = 0;    // m, the deepest overlap (≥ 0)
   int rod = -1, element = -1;    // where it is
   std::int64_t rebuilds = 0;     // rod–rod neighbour-list rebuilds so far
+  int list_capacity = 0;         // the lists' capacity now, and how often they grew
+  std::int64_t list_growths = 0;
 };
 
 template <class T>

@@ -116,6 +116,9 @@ struct RunResult {
   // and the deepest overlap (m)
   std::int64_t max_contacts = 0;
   double max_penetration = 0;
+  // the rod–rod neighbour lists at the end: capacity and how often they grew
+  int list_capacity = 0;
+  std::int64_t list_growths = 0;
   // the validity monitor's summary, a line per kind of violation seen
   // (empty: the run stayed in the model's range)
   std::vector<std::string> validity;

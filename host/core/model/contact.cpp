@@ -87,6 +87,9 @@ void check_spec(const ContactSpec& spec, int rods) {
   if (!(spec.skin >= 0 && std::isfinite(spec.skin)))
     throw InputError("contact: skin must be >= 0 (0: automatic)");
   if (spec.capacity < 1) throw InputError("contact: capacity must be >= 1");
+  if (spec.max_capacity < spec.capacity)
+    throw InputError("contact: max_capacity (" + std::to_string(spec.max_capacity) + ") must be >= capacity (" +
+                     std::to_string(spec.capacity) + ")");
   if (!spec.rod_friction.empty() && int(spec.rod_friction.size()) != rods)
     throw InputError("contact: rod_friction has " + std::to_string(spec.rod_friction.size()) + " entries for " +
                      std::to_string(rods) + " rods");
@@ -154,7 +157,7 @@ void check_start_apart(RodBatch<T>& b) {
     for (int e = 0; e < b.elements(r); ++e) {
       const int k = b.elem_index(r, e);
       for (int j = 0; j < c.neighbour_count[k]; ++j) {
-        const int kb = c.neighbours[std::size_t(k) * std::size_t(c.spec.capacity) + std::size_t(j)];
+        const int kb = c.neighbours[std::size_t(k) * std::size_t(c.capacity) + std::size_t(j)];
         if (kb < k) continue;
         const T gap =
             pair_geometry(k, kb, s.node_x, c.elem_radius.data(), pair_near(k, kb, c.elem_rod.data(), c.rod_near.data())).gap;
@@ -241,7 +244,9 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   MANYRODS_CONTACT_OWN_FIELDS(MANYRODS_CONTACT_ALLOCATE_OWN)
 #undef MANYRODS_CONTACT_ALLOCATE_VIEW
 #undef MANYRODS_CONTACT_ALLOCATE_OWN
-  if (spec.rod_rod || spec.self) c.neighbours.resize(n * std::size_t(spec.capacity), -1);
+  c.capacity = spec.capacity;
+  c.list_growths = 0;
+  if (spec.rod_rod || spec.self) c.neighbours.resize(n * std::size_t(c.capacity), -1);
   c.rod_mu.assign(4 * std::size_t(b.rod_count()), T(0));
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);
   c.rod_near.assign(std::size_t(b.rod_count()), 1);
@@ -274,6 +279,8 @@ ContactStats contact_stats(const RodBatch<T>& b, int rod_begin, int rod_end) {
   const ContactData<T>& c = b.contact;
   if (!c.on) return st;
   st.rebuilds = c.rebuilds;
+  st.list_capacity = c.capacity;
+  st.list_growths = c.list_growths;
   std::vector<ColliderFrame<T>> frames(c.spec.colliders.size());
   place_colliders(c, b.state.time, 0.0, frames.data());
   const ConstStateView<T> s = b.state_view();
@@ -294,7 +301,7 @@ ContactStats contact_stats(const RodBatch<T>& b, int rod_begin, int rod_end) {
       for (const ColliderFrame<T>& f : frames) note(deepest_touch(f, x0, x1, c.elem_radius[k]).gap, r, e);
       if (!c.built) continue;
       for (int j = 0; j < c.neighbour_count[k]; ++j) {
-        const int kb = c.neighbours[std::size_t(k) * std::size_t(c.spec.capacity) + std::size_t(j)];
+        const int kb = c.neighbours[std::size_t(k) * std::size_t(c.capacity) + std::size_t(j)];
         if (kb < k) continue;  // each pair once, in the stage's order (lo = k)
         note(pair_geometry(k, kb, s.node_x, c.elem_radius.data(), pair_near(k, kb, c.elem_rod.data(), c.rod_near.data())).gap,
              r, e);

@@ -3,6 +3,8 @@
 // are stale, the elements' skins, a sorted uniform grid of element midpoints,
 // every element's candidates gathered from it, the wide elements' hand-over, and
 // the finished lists in slot order.
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -231,7 +233,7 @@ int* neighbour_list(ContactData<T>& c, int k, int cap) {
 template <class T>
 std::vector<int> gather_candidates(ContactData<T>& c, const ConstStateView<T>& s, int n, const Reaches& re,
                                    const CellGrid& g, const Exec& ex) {
-  const int cap = c.spec.capacity;
+  const int cap = c.capacity;
   std::vector<int> count(std::size_t(n), 0);  // candidates found (may exceed cap)
   const RegionFpMode mode = RegionFpMode::of_caller();
 #pragma omp parallel num_threads(ex.threads) if (ex.threads > 1)
@@ -254,7 +256,7 @@ std::vector<int> gather_candidates(ContactData<T>& c, const ConstStateView<T>& s
 // the wide elements' narrow partners, handed over in (partner, wide) order
 template <class T>
 void hand_over(ContactData<T>& c, int n, const Reaches& re, std::vector<int>& count) {
-  const int cap = c.spec.capacity;
+  const int cap = c.capacity;
   std::vector<std::pair<int, int>> handed;
   for (int k = 0; k < n; ++k) {
     if (c.elem_rod[k] < 0 || !wide(c, re, k)) continue;
@@ -270,34 +272,58 @@ void hand_over(ContactData<T>& c, int n, const Reaches& re, std::vector<int>& co
   }
 }
 
-// the error for element k's list, which found more candidates than the capacity
+// the error for element k's list, which found more candidates than the lists
+// may hold (max_capacity, or the machine's memory: `limit`)
 template <class T>
-std::runtime_error list_overflow(const RodBatch<T>& b, int k, int found) {
+std::runtime_error list_overflow(const RodBatch<T>& b, int k, int found, const std::string& limit) {
   const ContactData<T>& c = b.contact;
   const int r = c.elem_rod[k];
   std::ostringstream os;
   os << "contact: element " << k - b.rods[r].offset - 1 << " of rod " << r << " ('" << b.rods[r].name << "') has "
-     << found << " rod-rod candidates within its skin (" << double(c.elem_skin[k]) << " m), more than the capacity "
-     << c.spec.capacity << ", at step " << b.state.steps << " (t = " << b.state.time
-     << " s): raise the capacity ([contact] capacity) or lower the skin";
+     << found << " rod-rod candidates within its skin (" << double(c.elem_skin[k]) << " m), more than " << limit
+     << ", at step " << b.state.steps << " (t = " << b.state.time << " s): lower the skin ([contact] skin) or "
+     << "raise [contact] max_capacity";
   return std::runtime_error(os.str());
 }
 
-// Finishes the lists: their lengths, and each list in slot order (the
-// contact sums do not depend on the grid, the skins or when the lists were
-// built, docs/contact.md); throws std::runtime_error naming the first element
-// whose list overflowed, else records the positions the lists were built at.
+// The capacity for lists of up to `most` candidates: at least double the
+// present one (so that a pile that keeps packing grows the lists a few
+// times, not every step), at most spec.max_capacity; throws list_overflow
+// when `most` does not fit in max_capacity or in the machine's memory.
+template <class T>
+int grown_capacity(const RodBatch<T>& b, int n, const std::vector<int>& count) {
+  const ContactData<T>& c = b.contact;
+  int k_most = 0;
+  for (int k = 1; k < n; ++k)
+    if (count[std::size_t(k)] > count[std::size_t(k_most)]) k_most = k;
+  const int most = count[std::size_t(k_most)];
+  if (most > c.spec.max_capacity)
+    throw list_overflow(b, k_most, most, "max_capacity = " + std::to_string(c.spec.max_capacity));
+  const int cap = std::max(most, int(std::min<std::int64_t>(2 * std::int64_t(c.capacity), c.spec.max_capacity)));
+  const double bytes = double(n) * double(cap) * double(sizeof(int));
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0 && bytes > 0.5 * double(pages) * double(page)) {
+    std::ostringstream os;
+    os.precision(3);
+    os << "the memory for lists of " << cap << " (" << bytes / 1e9 << " GB, over half of this machine's "
+       << double(pages) * double(page) / 1e9 << " GB)";
+    throw list_overflow(b, k_most, most, os.str());
+  }
+  return cap;
+}
+
+// Finishes the lists (every count within the capacity): their lengths, and
+// each list in slot order (the contact sums do not depend on the grid, the
+// skins, the capacity or when the lists were built, docs/contact.md); records
+// the positions the lists were built at.
 template <class T>
 void finish_lists(RodBatch<T>& b, const ConstStateView<T>& s, int n, const std::vector<int>& count) {
   ContactData<T>& c = b.contact;
-  const int cap = c.spec.capacity;
-  int overflow = n;  // the first element whose list overflowed
+  const int cap = c.capacity;
   for (int k = 0; k < n; ++k) {
-    if (count[std::size_t(k)] > cap) overflow = std::min(overflow, k);
-    c.neighbour_count[k] = std::min(count[std::size_t(k)], cap);
+    c.neighbour_count[k] = count[std::size_t(k)];
     std::sort(neighbour_list(c, k, cap), neighbour_list(c, k, cap) + c.neighbour_count[k]);
   }
-  if (overflow < n) throw list_overflow(b, overflow, count[std::size_t(overflow)]);
   for (int d = 0; d < 3; ++d)
     for (int k = 0; k < n; ++k) c.node_x_ref[d][k] = s.node_x[d][k];
   c.built = true;
@@ -320,6 +346,16 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
   fill_grid(c, s, n, g);
   std::vector<int> count = gather_candidates(c, s, n, *re, g, ex);
   hand_over(c, n, *re, count);
+  while (*std::max_element(count.begin(), count.end()) > c.capacity) {
+    // a list overflowed: all grow, and are gathered again (the same lists,
+    // so the same step, as with this capacity from the start; again if a
+    // wide element's list, cut short, had not handed over all its partners)
+    c.capacity = grown_capacity(b, n, count);
+    c.neighbours.resize(std::size_t(n) * std::size_t(c.capacity), -1);
+    ++c.list_growths;
+    count = gather_candidates(c, s, n, *re, g, ex);
+    hand_over(c, n, *re, count);
+  }
   finish_lists(b, s, n, count);
 }
 

@@ -48,7 +48,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   v.rod_mu = c.rod_mu.data();
   v.rod_mu_own = c.rod_mu_own.data();
   v.neighbours = c.neighbours.data();
-  v.capacity = c.spec.capacity;
+  v.capacity = c.capacity;
   v.hardness = T(c.spec.hardness);
   v.damping_ratio = T(c.spec.damping_ratio);
   return v;

@@ -360,6 +360,8 @@ class SceneRun {
       row.contacts = double(cs.contacts);
       row.max_penetration = cs.max_penetration;
       res_.max_contacts = std::max(res_.max_contacts, cs.contacts);
+      res_.list_capacity = cs.list_capacity;
+      res_.list_growths = cs.list_growths;
       res_.max_penetration = std::max(res_.max_penetration, cs.max_penetration);
     }
     w.append_frame(b_.state.time, pos_.data(), dir_.data(), row);

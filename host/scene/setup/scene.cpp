@@ -596,14 +596,20 @@ void parse_contact(const Ctx& ctx, const Table& top, Scene& sc) {
     for (std::size_t i = 0; i < a->size(); ++i) sc.contact.colliders.push_back(parse_collider(ctx, *a->get(i)->as_table(), i));
   }
   if (top.has("contact")) {
-    const Table t = top.sub("contact", {"rod_rod", "self", "friction", "hardness", "damping_ratio", "skin", "capacity"});
+    const Table t = top.sub("contact", {"rod_rod", "self", "friction", "hardness", "damping_ratio", "skin", "capacity",
+                                        "max_capacity"});
     sc.contact.rod_rod = t.boolean("rod_rod", false);
     sc.contact.self = t.boolean("self", false);
     if (t.has("friction")) sc.contact.friction = parse_friction(t);
     if (t.has("hardness")) sc.contact.hardness = t.positive("hardness");
     if (t.has("damping_ratio")) sc.contact.damping_ratio = t.non_negative("damping_ratio");
     if (t.has("skin")) sc.contact.skin = t.non_negative("skin");
-    if (t.has("capacity")) sc.contact.capacity = int(t.integer("capacity", 1, 4096));
+    if (t.has("capacity")) sc.contact.capacity = int(t.integer("capacity", 1, 1 << 20));
+    if (t.has("max_capacity")) sc.contact.max_capacity = int(t.integer("max_capacity", 1, 1 << 20));
+    if (sc.contact.max_capacity < sc.contact.capacity)
+      t.fail(t.has("max_capacity") ? "max_capacity" : "capacity",
+             "max_capacity (" + std::to_string(sc.contact.max_capacity) + ") must be >= capacity (" +
+                 std::to_string(sc.contact.capacity) + "): the lists start at capacity and grow up to max_capacity");
   }
   sc.has_contact = !sc.contact.colliders.empty() || sc.contact.rod_rod || sc.contact.self;
   if (sc.has_contact && sc.sim.integrator != Integrator::position_verlet)
