@@ -56,7 +56,8 @@
 // reads: model (masses, inertia), state (x, v, Q, ω), contact data
 // writes: contact.elem_count (contact_count), contact.elem_p0, elem_p1,
 //   elem_l (contact_impulses), state.node_v,
-//   elem_w and contact.work (apply_contact)
+//   elem_w and contact.work (apply_contact), contact.v_start, w_start
+//   (save_start_velocities)
 #pragma once
 
 #include "kernels/views.h"
@@ -81,6 +82,8 @@ struct ContactView {
   T* p1[3] = {};
   T* l[3] = {};
   T* work = nullptr;
+  T* v_start[3] = {};  // the velocities at the step's start (save_start_velocities)
+  T* w_start[3] = {};
   const int* neighbours = nullptr;
   const int* neighbour_count = nullptr;
   int capacity = 0;
@@ -612,9 +615,26 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
   }
 }
 
+// Slot k at the step's start: its node's and element's velocities, for the
+// work of the step's contact impulses (apply_contact).
+// reads: state.node_v, elem_w  writes: contact.v_start, w_start
+template <class T>
+MANYRODS_HD inline void save_start_velocities(int k, const ConstStateView<T>& st, const ContactView<T>& cv) {
+  store3(cv.v_start, k, load3(st.node_v, k));
+  store3(cv.w_start, k, load3(st.elem_w, k));
+}
+
 // Slot k: node k takes the impulses of its two elements' contacts, element k
-// its couple; the work they do goes to contact.work[k] (kinetic energy after
-// minus before: ½ m (|v⁺|² − |v⁻|²) + ½ Σ J_i (ω_i⁺² − ω_i⁻²)).
+// its couple; the work they do goes to contact.work[k]. The work of an
+// impulse P over the step is P·(v_n + v_{n+1})/2, v_n the velocity at the
+// step's start and v_{n+1} at its end: Position Verlet moves the node by
+// x_{n+1} − x_n = h (v_n + v_{n+1})/2, so this is the work of the force P/h
+// over the step's displacement, and the kinetic energy's change over the
+// step is exactly the sum of such terms of every force of the kick (gravity's
+// is −ΔU exactly; the elastic forces' −ΔE to the integrator's error). A node
+// resting on a plane (v_n = v_{n+1} = 0) takes no work; a sliding one loses
+// μ λ |v̄| to friction. Rotation likewise: (J Δω)·(ω_n + ω_{n+1})/2 in the
+// material frame.
 template <class T>
 MANYRODS_HD inline void apply_contact(int k, const ModelView<T>& m, const StateView<T>& st, const ContactView<T>& cv) {
   // nothing gathered for node k or element k (a ghost node, inverse mass 0,
@@ -624,17 +644,16 @@ MANYRODS_HD inline void apply_contact(int k, const ModelView<T>& m, const StateV
   const T im = m.node_inv_mass[k];
   if (im > T(0)) {
     const vec3<T> p = load3(cv.p1, k - 1) + load3(cv.p0, k);
-    const vec3<T> v0 = load3(st.node_v, k), v1 = v0 + im * p;
+    const vec3<T> v1 = load3(st.node_v, k) + im * p;
     store3(st.node_v, k, v1);
-    dw += T(0.5) * m.node_mass[k] * (dot(v1, v1) - dot(v0, v0));
+    dw += T(0.5) * dot(p, load3(cv.v_start, k) + v1);
   }
   const vec3<T> l = load3(cv.l, k);
   if (l.x != T(0) || l.y != T(0) || l.z != T(0)) {
-    const vec3<T> w0 = load3(st.elem_w, k);
-    const vec3<T> w1 = w0 + hadamard(load3(m.elem_inv_inertia, k), mul(load_frame(st.elem_Q, k), l));
+    const vec3<T> dw_mat = hadamard(load3(m.elem_inv_inertia, k), mul(load_frame(st.elem_Q, k), l));
+    const vec3<T> w1 = load3(st.elem_w, k) + dw_mat;
     store3(st.elem_w, k, w1);
-    const vec3<T> J = load3(m.elem_inertia, k);
-    dw += T(0.5) * (dot(J, hadamard(w1, w1)) - dot(J, hadamard(w0, w0)));
+    dw += T(0.5) * dot(hadamard(load3(m.elem_inertia, k), dw_mat), load3(cv.w_start, k) + w1);
   }
   cv.work[k] += dw;
 }

@@ -1076,6 +1076,58 @@ TEST(Cli, ValidityMonitorWarnsOrStops) {
   expect_contains(r.err, "simulation.validity.on_violation");
 }
 
+TEST(Cli, RodsAtRestOrSlidingOnContactRunWithoutWarnings) {
+  // Correct runs end with exit 0: a rod resting on an incline (15°, μ_s =
+  // 0.5 > tan 15°), one sliding down it (20°, μ = 0.1 < tan 20°), and a rod
+  // draped across a drum (a capsule) settling under damping. The energy
+  // check judges K + E + U − W against Σ m g L (the rods at rest have K + E
+  // ~0) with W the contact impulses' work over each step's displacement
+  // (zero on a resting node): a budget that closes.
+  const double pi = 3.14159265358979323846;
+  auto rod = [](const std::string& start, const std::string& dir, const std::string& extra) {
+    return "[[rods]]\nname = \"rod\"\nelements = 20\nlength = 0.3\nroot = \"free\"\nstart = " + start +
+           "\ndirection = " + dir +
+           "\nsection = { shape = \"circle\", radius = 0.005 }\n"
+           "material = { density = 1000.0, youngs_modulus = 1.0e6, poisson_ratio = 0.3 }\n"
+           "damping = { tau_shear = 0.01, tau_extension = 0.01 }\n" + extra;
+  };
+  auto vec = [](double x, double y, double z) {
+    std::ostringstream o;
+    o.precision(17);
+    o << "[" << x << ", " << y << ", " << z << "]";
+    return o.str();
+  };
+  auto plane = [&](double theta, double mu_s, double mu_k) {
+    std::ostringstream o;
+    o << "[[colliders]]\nkind = \"plane\"\npoint = [0.0, 0.0, 0.0]\nnormal = "
+      << vec(std::sin(theta), 0, std::cos(theta)) << "\nfriction = { static = " << mu_s << ", kinetic = " << mu_k
+      << " }\n";
+    return o.str();
+  };
+  const std::string sim = "[simulation]\ndt = \"auto\"\nduration = 1.0\noutput_interval = 0.05\n"
+                          "gravity = [0.0, 0.0, -9.81]\n";
+  struct Case {
+    const char* name;
+    std::string text;
+  };
+  const double rest = 15 * pi / 180, slide = 20 * pi / 180, r = 0.005;
+  const std::vector<Case> cases = {
+      {"incline_rest", sim + rod(vec(1.001 * r * std::sin(rest), 0, 1.001 * r * std::cos(rest)),
+                                 vec(std::cos(rest), 0, -std::sin(rest)), "") + plane(rest, 0.5, 0.3)},
+      {"incline_slide", sim + rod(vec(1.001 * r * std::sin(slide), 0, 1.001 * r * std::cos(slide)),
+                                  vec(std::cos(slide), 0, -std::sin(slide)), "") + plane(slide, 0.1, 0.1)},
+      {"drum", sim + rod(vec(-0.15, 0, 0.05 + 1.001 * r), vec(1, 0, 0), "") +
+                   "[[colliders]]\nkind = \"capsule\"\na = [0.0, -0.1, 0.0]\nb = [0.0, 0.1, 0.0]\nradius = 0.05\n"
+                   "friction = { static = 0.5, kinetic = 0.4 }\n"}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Result res = cli("run " + write_scene(std::string(c.name) + ".toml", c.text) + " -o " +
+                           path(std::string(c.name) + ".h5") + " --no-progress");
+    EXPECT_EQ(res.status, 0) << res.err;
+    EXPECT_EQ(res.err.find("validity"), std::string::npos) << res.err;
+  }
+}
+
 TEST(Cli, FramesFallOnExactMultiplesOfTheOutputInterval) {
   // 24 frames per second: dt = "auto" is shortened to interval / m, so
   // frame k is step k·m at k/24 s (to the round-off of summing the steps)

@@ -565,6 +565,11 @@ TEST(SceneErrors, ContactKeys) {
   expect_error(base + "\n[[colliders]]\nkind = \"mesh\"\nfile = \"no-such-head.obj\"\n",
                {"colliders.0.file", "no-such-head.obj"});
   expect_error(base + "\n[contact]\ncapacity = 0\n", {"contact.capacity"});
+  // a rod along x: without a normal one across it is chosen; a given one along it is an error
+  const Scene along_x = parse_scene(scene_text("direction = [1.0, 0.0, 0.0]\n"), "x.toml");
+  EXPECT_NEAR(along_x.rods[0].frames[0][3 * 0 + 1], 1.0, 1e-15);  // d1 = +y
+  expect_error(scene_text("direction = [1.0, 0.0, 0.0]\nnormal = [2.0, 0.0, 0.0]\n"),
+               {"rods.0.normal", "must not be parallel to direction"});
   expect_error(base + "\n[contact]\ncapacity = 128\nmax_capacity = 100\n",
                {"contact.max_capacity", "must be >= capacity (128)"});
   expect_error(base + "\n[contact]\ncapacity = 8192\n", {"contact.capacity", "must be >= capacity (8192)"});

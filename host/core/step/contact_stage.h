@@ -101,6 +101,16 @@ void contact_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Ex
   detail::for_slots(r.begin, r.end, ex, [&](int k) { apply_contact(k, m, s, cv); });
 }
 
+// The velocities at the step's start on the slots of r, before its first
+// drift (the contact work's mean velocity, kernels/contact.h apply_contact).
+// reads: state.node_v, elem_w  writes: contact.v_start, w_start
+template <class T>
+void contact_start_stage(RodBatch<T>& b, const Exec& ex, const Segment& r) {
+  const ConstStateView<T> cs = std::as_const(b).state_view();
+  const ContactView<T> cv = contact_view(b, static_cast<const ColliderFrame<T>*>(nullptr));
+  detail::for_slots(r.begin, r.end, ex, [&](int k) { save_start_velocities(k, cs, cv); });
+}
+
 // ---- the contact stage of a step: the variant its Terms choose ----------------
 // Without contact Terms there is nothing to do and nothing is compiled; with
 // colliders only, each segment meets them on its own (temporal blocking

@@ -82,6 +82,8 @@ void verlet_stages(RodBatch<T>& b, T dt, double t, std::int64_t done, bool solve
   if (part == Part::all || part == Part::before_contact) {
     if (r.driven_end > r.driven_begin)
       timed(e, thread, Stage::root_motion, [&] { apply_motions(b, r, t, double(dt)); });
+    if constexpr (kT.colliders || kT.rod_contact)
+      timed(e, thread, Stage::contact, [&] { contact_start_stage(b, e, r); });
     timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
     timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
     const bool fluid = b.any_fluid();

@@ -6,8 +6,10 @@
 //            seed's linear Kelvin–Voigt law is a small-strain model;
 //   stretch  an element stretched or sheared beyond Validity::stretch (|σ|);
 //   energy   kinetic + elastic + potential − contact work above its value at
-//            the start by Validity::energy_growth × the largest kinetic +
-//            elastic energy seen, in a scene with no source of work (driven
+//            the start by Validity::energy_growth × the energy scale (the
+//            largest kinetic + elastic energy seen, and at least Σ m g L over
+//            the rods under gravity: never ~0 for rods at rest), in a scene
+//            with no source of work (driven
 //            roots, tip forces, moving colliders): an unstable or too coarse
 //            step. Damping only lowers it; the dissipated energy is not
 //            added back, because its sampled integral is biased where the
@@ -36,7 +38,7 @@ class ValidityMonitor {
                   double scale = NAN)
       : s_(s), lim_(s.sim.validity) {
     e0_ = std::isnan(energy0) ? budget(e0) : energy0;
-    scale_ = std::isnan(scale) ? e0.kinetic + e0.elastic : scale;
+    scale_ = std::max(std::isnan(scale) ? e0.kinetic + e0.elastic : scale, weight_scale(b));
     source_ = !b.driven.empty() || b.any_fluid();  // (a fluid: buoyancy and wind do work)
     for (const RodGroup& g : s.groups)
       if (g.tip_force[0] != 0 || g.tip_force[1] != 0 || g.tip_force[2] != 0) source_ = true;
@@ -75,8 +77,9 @@ class ValidityMonitor {
       if (x.count == 0) continue;
       char buf[1024];
       if (k == kEnergy)
-        std::snprintf(buf, sizeof buf, "energy grew without a source by up to %.3g x the largest kinetic + elastic "
-                      "energy (limit %.3g), first at t = %.6g s: too coarse or unstable a step "
+        std::snprintf(buf, sizeof buf, "energy grew without a source by up to %.3g x the energy scale (the largest "
+                      "kinetic + elastic energy, at least m g L) (limit %.3g), first at t = %.6g s: too coarse or "
+                      "unstable a step "
                       "(limit: simulation.validity.energy_growth)",
                       x.worst, lim_.energy_growth, x.first_time);
       else
@@ -102,6 +105,21 @@ class ValidityMonitor {
 
   static double budget(const Energies& e) { return e.total() - e.contact_work; }
 
+  // Σ over the rods of m g L (mass, |gravity|, rest length): the energy of a
+  // rod's weight over its own length, the scale of a scene under gravity
+  // whatever its motion (a rod at rest has kinetic + elastic energy ~0).
+  static double weight_scale(const RodBatch<T>& b) {
+    const double g = std::hypot(double(b.model.gravity[0]), double(b.model.gravity[1]), double(b.model.gravity[2]));
+    double sum = 0;
+    for (int r = 0; r < b.rod_count(); ++r) {
+      double m = 0, l = 0;
+      for (int i = 0; i <= b.elements(r); ++i) m += double(b.model.node_mass[b.node_index(r, i)]);
+      for (int e = 0; e < b.elements(r); ++e) l += double(b.model.elem_rest_length[b.elem_index(r, e)]);
+      sum += m * g * l;
+    }
+    return sum;
+  }
+
   void note(int kind, int rod, double value, double t, const std::string& where, std::vector<std::string>& out,
             const RodBatch<T>& b) {
     Kind& k = kinds_[kind];
@@ -114,8 +132,9 @@ class ValidityMonitor {
       // where the limit is set (docs/scenes.md "The validity monitor")
       if (kind == kEnergy)
         std::snprintf(buf, sizeof buf,
-                      "validity: at t = %.6g s the energy has grown by %.3g x the largest kinetic + elastic energy "
-                      "(limit %.3g) with no source of work: the step is too coarse or unstable\n"
+                      "validity: at t = %.6g s the energy has grown by %.3g x the energy scale (the largest kinetic + "
+                      "elastic energy, at least m g L) (limit %.3g) with no source of work: the step is too coarse or "
+                      "unstable\n"
                       "  to judge: rerun with half the step (halve dt_safety, or dt): if the growth shrinks, it was "
                       "the step; the limit is simulation.validity.energy_growth",
                       t, value, lim_.energy_growth);

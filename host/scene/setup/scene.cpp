@@ -1232,8 +1232,11 @@ Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const
     p.start = g.vec3("start", {0, 0, 0});
     p.direction = g.nonzero_vec3("direction", {0, 0, 1});
     p.normal = g.nonzero_vec3("normal", {1, 0, 0});
-    if (to_e(p.direction).normalized().cross(to_e(p.normal).normalized()).norm() < 1e-9)
-      g.fail(g.has("normal") ? "normal" : "direction", "normal must not be parallel to direction");
+    const auto parallel = [&] {
+      return to_e(p.direction).normalized().cross(to_e(p.normal).normalized()).norm() < 1e-9;
+    };
+    if (!g.has("normal") && parallel()) p.normal = RodSpec::normal_across(p.direction);  // a rod along x
+    if (parallel()) g.fail("normal", "normal must not be parallel to direction");
   }
   if (!p.section_from_widths) p.section = parse_section(g, &p.g.width);
   p.material = parse_material(g);
