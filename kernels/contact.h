@@ -650,10 +650,11 @@ MANYRODS_HD inline void apply_contact(int k, const ModelView<T>& m, const StateV
   }
   const vec3<T> l = load3(cv.l, k);
   if (l.x != T(0) || l.y != T(0) || l.z != T(0)) {
-    const vec3<T> dw_mat = hadamard(load3(m.elem_inv_inertia, k), mul(load_frame(st.elem_Q, k), l));
-    const vec3<T> w1 = load3(st.elem_w, k) + dw_mat;
+    const vec3<T> w0 = load3(st.elem_w, k);
+    const vec3<T> w1 = w0 + hadamard(load3(m.elem_inv_inertia, k), mul(load_frame(st.elem_Q, k), l));
     store3(st.elem_w, k, w1);
-    dw += T(0.5) * dot(hadamard(load3(m.elem_inertia, k), dw_mat), load3(cv.w_start, k) + w1);
+    // (Δω as w1 − w0: the update above keeps its one rounding, the state its bits)
+    dw += T(0.5) * dot(hadamard(load3(m.elem_inertia, k), w1 - w0), load3(cv.w_start, k) + w1);
   }
   cv.work[k] += dw;
 }
