@@ -6,6 +6,7 @@
 // Position Verlet (Gazzola et al. 2018; the scheme PyElastica uses), h = dt:
 //   0. (driven holds) roots, tips, nodes put on their motion
 //      for [t, t + h]                                          apply_motions
+//   0b. (contact Terms) v, ω saved for the contact work           contact_start_stage
 //   1. drift ½h:  x += ½h v,  Q ← exp(−½h ω) Q                drift
 //   2. strains and total resultants at (x, Q)_{n+½} with the
 //      rates from (v, ω)_n                                     compute_resultants
