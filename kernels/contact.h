@@ -75,6 +75,7 @@ struct ContactView {
   const int* rod_near = nullptr;  // [rods] ContactData::rod_near
   const T* rod_mu = nullptr;  // [4 × rods]
   const int* rod_mu_own = nullptr;
+  const int* rod_stiff = nullptr;  // [rods] ContactData::rod_stiff
   int* elem_count = nullptr;
   int* elem_count_lo = nullptr;  // of them on node k (s < 1)
   int* elem_count_hi = nullptr;  // on node k+1 (s > 0)
@@ -329,10 +330,15 @@ MANYRODS_HD inline ContactSide<T> element_side(int k, T s, vec3<T> rho, const Mo
   // resists (the rigid-section limit; an explicit shear mode driven through
   // the contact would be unstable). With b = d3 × ρ, a couple impulse
   // d3 (d3 · (ρ × P)) moves the surface point by J₃⁻¹ (P · b) b:
-  // C_rot = c_k J₃⁻¹ b bᵀ.
+  // C_rot = c_k J₃⁻¹ b bᵀ. A stiff rod does not roll (C_rot = 0, and no
+  // couple, element_contacts): its twist is stiff, the twist wave crosses
+  // the rod within a step, so the axial inertia a contact meets is the
+  // whole rod's, ≥ n times one element's (its rolling compliance ≤ 1/n of
+  // this); one element's would spin it at v/r, h|ω| of order 1, and the
+  // drift's exact rotation then shears it.
   o.d3 = {Q.m[6], Q.m[7], Q.m[8]};
   const vec3<T> bb = cross(o.d3, rho);
-  const T j3 = ce * m.elem_inv_inertia[2][k];
+  const T j3 = cv.rod_stiff[cv.elem_rod[k]] ? T(0) : ce * m.elem_inv_inertia[2][k];
   o.crot[0] = j3 * bb.x * bb.x;
   o.crot[1] = j3 * bb.x * bb.y;
   o.crot[2] = j3 * bb.x * bb.z;
@@ -611,7 +617,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
   } else {
     store3(cv.p0, k, acc.p0);
     store3(cv.p1, k, acc.p1);
-    store3(cv.l, k, acc.l);
+    store3(cv.l, k, rod >= 0 && cv.rod_stiff[rod] ? vec3<T>{T(0), T(0), T(0)} : acc.l);  // (a stiff rod does not roll)
   }
 }
 

@@ -192,12 +192,13 @@ TEST(Cli, ExampleScenesRun) {
     SCOPED_TRACE(e.file);
     const std::string out = path(std::string(e.file) + ".h5");
     const Result r = cli("run " + scenes + "/" + e.file + ".toml -o " + out + " --duration " + e.duration);
-    // hair_turn ends with a strain warning (exit 3) where a hair tip hits the
-    // head at its frame-rate step: contact acts after the stiff solve, which
-    // never sees it, and shears the tip element (docs/contact.md
-    // "Limitations"); the warning is right, the run is what is wrong. Every
+    // hair_turn's hair tips still shear to ~0.15 for a few steps where they
+    // hit the head (17 of its first 1,080 steps, docs/scenes.md "The validity
+    // monitor"): whether a sample of the monitor (every 64th step) lands on
+    // one depends on the machine's rounding, so it may end with a strain
+    // warning (exit 3), rightly; contact acts after the stiff solve. Every
     // other example ends with exit 0.
-    if (std::string(e.file) == "hair_turn" && r.status == 3) expect_contains(r.err, "manyrods: validity: ");
+    if (std::string(e.file) == "hair_turn" && r.status == 3) expect_contains(r.err, "(stretch/shear) has strain");
     else ASSERT_EQ(r.status, 0) << r.err;
     const h5::Reader rd(out);
     EXPECT_EQ(int(rd.output().node_offsets.size()) - 1, e.rods);

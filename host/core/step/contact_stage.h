@@ -47,6 +47,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   v.rod_near = c.rod_near.data();
   v.rod_mu = c.rod_mu.data();
   v.rod_mu_own = c.rod_mu_own.data();
+  v.rod_stiff = c.rod_stiff.data();
   v.neighbours = c.neighbours.data();
   v.capacity = c.capacity;
   v.hardness = T(c.spec.hardness);
