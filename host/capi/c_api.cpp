@@ -405,12 +405,8 @@ mr_status mr_batch_set_driver_pose_about(mr_batch* b, size_t driver, const mr_po
   return guard([&] {
     manyrods::Pose p;
     std::copy(pose->rotation, pose->rotation + 9, p.rotation.begin());
-    const Vec3 c{pivot[0], pivot[1], pivot[2]};
-    // x ↦ R (x − c) + c + t = R x + (c − R c + t): the library's Pose
-    for (int i = 0; i < 3; ++i)
-      p.translation[i] = pose->translation[i] + c[i] -
-                         (p.rotation[3 * i] * c[0] + p.rotation[3 * i + 1] * c[1] + p.rotation[3 * i + 2] * c[2]);
-    b->b.set_driver_pose(int(driver), p, time, c);
+    std::copy(pose->translation, pose->translation + 3, p.translation.begin());
+    b->b.set_driver_pose(int(driver), p, time, {pivot[0], pivot[1], pivot[2]});  // (turned about it there)
   });
 }
 

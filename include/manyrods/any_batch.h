@@ -98,7 +98,8 @@ class AnyBatch {
   int driver_count() const { return int(host_motions_.size()); }
   const std::string& driver_name(int driver) const { return host_motions_.at(std::size_t(driver))->name(); }
   int find_driver(const std::string& name) const;
-  // pivot: the body point whose image moves on a straight line during the
+  // pivot: the body point the pose turns about (HostMotion::set_target: x ↦
+  // R (x − pivot) + pivot + translation), whose image moves on a straight line during the
   // move (HostMotion::set_target; the pose itself already says where it ends).
   void set_driver_pose(int driver, const Pose& pose, double until, const Vec3& pivot = {0, 0, 0});
 

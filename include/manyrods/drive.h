@@ -111,11 +111,12 @@ struct RampMotion : RootMotion {
 // `motion = "host"` (docs/scenes.md "Host-driven motion"), the C API's
 // mr_batch_set_driver_pose, the Python module's Batch.set_driver_pose.
 // set_target(now, target, until, pivot) moves it from where it is at `now`
-// (at(now)) to `target` at `until`: the rotation along the shortest arc
-// (constant angular velocity) and the image of the body point `pivot` on a
-// straight line (so a head turned about its neck keeps the neck in place
-// during the move; pivot 0: the translation linearly), held at `target`
-// after `until`;
+// (at(now)) to `target` turned about the body point `pivot` at `until` (the
+// pose x ↦ R (x − pivot) + pivot + translation; pivot 0: target itself):
+// the rotation along the shortest arc (constant angular velocity) and the
+// pivot's image on a straight line (so a head turned about its neck keeps
+// the neck in place during the move; pivot 0: the translation linearly),
+// held there after `until`;
 // until = now jumps (a teleport: the step sees an infinite velocity, so only
 // for a first placement). It starts at the identity pose. set_target must
 // not run while a step evaluates at() (the host sets poses between steps).
@@ -125,7 +126,7 @@ class HostMotion : public RootMotion {
   const std::string& name() const { return name_; }
   Pose at(double t) const override;
   // InputError for a non-finite or improper rotation (det ≠ 1, not
-  // orthonormal within 1e-6), a non-finite translation, until < now.
+  // orthonormal within 1e-6), a non-finite translation or pivot, until < now.
   void set_target(double now, const Pose& target, double until, const Vec3& pivot = {0, 0, 0});
 
  private:

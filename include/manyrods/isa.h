@@ -17,6 +17,7 @@
 // "One build for every x86-64 CPU".
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -51,5 +52,8 @@ template <class T>
 double peak_flops(int threads);
 template <class T>
 double triad_bandwidth(int threads);
+// This machine's physical memory in bytes (0: not known), which the checks
+// of what a batch, a sweep or the contact lists would need are made against.
+std::uint64_t physical_memory();
 
 }  // namespace manyrods

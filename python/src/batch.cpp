@@ -389,19 +389,7 @@ manyrods::Mat3 rotation_of(nb::handle rotation) {
     return m;
   }
   std::copy(q.begin(), q.end(), m.begin());
-  double err = 0;
-  for (int r = 0; r < 3; ++r)
-    for (int s = 0; s < 3; ++s) {
-      double d = 0;
-      for (int c = 0; c < 3; ++c) d += m[3 * r + c] * m[3 * s + c];
-      err = std::max(err, std::abs(d - (r == s)));
-    }
-  const double det = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
-                     m[2] * (m[3] * m[7] - m[4] * m[6]);
-  if (!(err <= 1e-6) || !(det > 0))
-    throw manyrods::InputError("rotation: not a proper rotation (|R R^T - I| = " + std::to_string(err) +
-                               " (at most 1e-6), det = " + std::to_string(det) + " (must be 1))");
-  return m;
+  return m;  // (HostMotion::set_target checks that it is a proper rotation)
 }
 
 void set_driver_pose(PyBatch& p, const std::string& name, nb::handle rotation,
@@ -415,11 +403,8 @@ void set_driver_pose(PyBatch& p, const std::string& name, nb::handle rotation,
     if (!std::isfinite(t[i]) || !std::isfinite(c[i]))
       throw manyrods::InputError(std::string(std::isfinite(t[i]) ? "pivot" : "translation") + ": component " +
                                  std::to_string(i) + " is not finite");
-  // x ↦ R (x − c) + c + t = R x + (c − R c + t): the library's Pose
-  const manyrods::Mat3& R = pose.rotation;
-  for (int i = 0; i < 3; ++i)
-    pose.translation[i] = pivot ? t[i] + (c[i] - (R[3 * i] * c[0] + R[3 * i + 1] * c[1] + R[3 * i + 2] * c[2])) : t[i];
-  p.b.set_driver_pose(p.b.find_driver(name), pose, time, c);
+  pose.translation = t;
+  p.b.set_driver_pose(p.b.find_driver(name), pose, time, c);  // (HostMotion::set_target turns it about c)
 }
 
 // Host motions (drivers) and their poses.

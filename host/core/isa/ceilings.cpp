@@ -1,7 +1,10 @@
 // host/core/isa/ceilings.cpp — this machine's ceilings, measured
-// (include/manyrods/isa.h peak_flops, triad_bandwidth): the FMA peak on the
+// (include/manyrods/isa.h peak_flops, triad_bandwidth, and its memory,
+// physical_memory): the FMA peak on the
 // active step path's instruction set (its table's loop, isa_table.h) and
 // the STREAM triad (roofline.h).
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <memory>
@@ -56,6 +59,11 @@ double triad_bandwidth(int threads) {
     if (i > 0) best = std::max(best, bytes / seconds_since(t0));
   }
   return best;
+}
+
+std::uint64_t physical_memory() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? std::uint64_t(pages) * std::uint64_t(page) : 0;
 }
 
 template double peak_flops<float>(int);

@@ -164,12 +164,17 @@ void HostMotion::set_target(double now, const Pose& target, double until, const 
   const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(target.rotation.data());
   const double off = (r * r.transpose() - EM3::Identity()).cwiseAbs().maxCoeff();
   if (off > 1e-6 || r.determinant() < 0)
-    bad("the rotation is not a proper rotation matrix (|R Rᵀ − I| = " + std::to_string(off) +
-        ", det = " + std::to_string(r.determinant()) + ")");
+    bad("the rotation is not a proper rotation (|R R^T - I| = " + std::to_string(off) +
+        " (at most 1e-6), det = " + std::to_string(r.determinant()) + " (must be 1))");
   if (!std::isfinite(now) || !std::isfinite(until) || until < now)
     bad("the time " + std::to_string(until) + " is before the batch's time " + std::to_string(now));
-  // re-orthonormalized, so that at() stays a rotation to round-off
+  // about the pivot: x ↦ R (x − c) + c + t = R x + (t + (c − R c))
   Pose t = target;
+  for (int i = 0; i < 3; ++i)
+    t.translation[i] =
+        target.translation[i] + (pivot[i] - (target.rotation[3 * i] * pivot[0] + target.rotation[3 * i + 1] * pivot[1] +
+                                             target.rotation[3 * i + 2] * pivot[2]));
+  // re-orthonormalized, so that at() stays a rotation to round-off
   const EM3 q = Eigen::Quaterniond(EM3(r)).normalized().toRotationMatrix();
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) t.rotation[3 * i + j] = q(i, j);

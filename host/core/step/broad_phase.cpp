@@ -3,8 +3,6 @@
 // are stale, the elements' skins, a sorted uniform grid of element midpoints,
 // every element's candidates gathered from it, the wide elements' hand-over, and
 // the finished lists in slot order.
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -18,6 +16,7 @@
 
 #include "host/core/step/contact_stage.h"
 #include "kernels/views.h"
+#include "manyrods/isa.h"
 
 namespace manyrods {
 namespace {
@@ -301,12 +300,12 @@ int grown_capacity(const RodBatch<T>& b, int n, const std::vector<int>& count) {
     throw list_overflow(b, k_most, most, "max_capacity = " + std::to_string(c.spec.max_capacity));
   const int cap = std::max(most, int(std::min<std::int64_t>(2 * std::int64_t(c.capacity), c.spec.max_capacity)));
   const double bytes = double(n) * double(cap) * double(sizeof(int));
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-  if (pages > 0 && page > 0 && bytes > 0.5 * double(pages) * double(page)) {
+  const double memory = double(physical_memory());
+  if (memory > 0 && bytes > 0.5 * memory) {
     std::ostringstream os;
     os.precision(3);
     os << "the memory for lists of " << cap << " (" << bytes / 1e9 << " GB, over half of this machine's "
-       << double(pages) * double(page) / 1e9 << " GB)";
+       << memory / 1e9 << " GB)";
     throw list_overflow(b, k_most, most, os.str());
   }
   return cap;

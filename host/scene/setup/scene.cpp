@@ -6,10 +6,10 @@
 #include "manyrods/mesh.h"
 #include "manyrods/curves.h"
 
+#include "manyrods/isa.h"
 #include "manyrods/rng.h"
 
 #include <toml++/toml.h>
-#include <unistd.h>
 
 #include <Eigen/Dense>
 #include <cmath>
@@ -523,10 +523,16 @@ Friction parse_friction(const Table& g) {
   return r;
 }
 
-// The scene file's directory, for paths in it.
-std::string scene_dir(const std::string& source) {
-  const std::size_t i = source.find_last_of('/');
-  return i == std::string::npos ? std::string() : source.substr(0, i + 1);
+// A file the scene names (an OBJ mesh, a curves file): relative to the scene
+// file's directory unless absolute; recorded as one of its inputs.
+std::string input_file(const Ctx& ctx, const std::string& file) {
+  std::string full = file;
+  if (file.empty() || file[0] != '/') {
+    const std::size_t i = ctx.source.find_last_of('/');
+    full = (i == std::string::npos ? std::string() : ctx.source.substr(0, i + 1)) + file;
+  }
+  ctx.inputs.push_back(full);
+  return full;
 }
 
 // What every collider kind has: name, friction, motion.
@@ -575,8 +581,7 @@ Collider parse_collider(const Ctx& ctx, const toml::table& ct, std::size_t i) {
     c.kind = ColliderKind::mesh;
     const std::string file = t.text("file");
     const int res = int(t.has("resolution") ? t.integer("resolution", 8, 512) : 64);
-    const std::string full = !file.empty() && file[0] == '/' ? file : scene_dir(ctx.source) + file;
-    ctx.inputs.push_back(full);
+    const std::string full = input_file(ctx, file);
     try {
       c.grid = load_mesh_grid(full, res);
     } catch (const InputError& e) {
@@ -1096,11 +1101,11 @@ void check_size(const std::string& source, std::int64_t slots, std::int64_t elem
     throw SceneError(source + ": the scene has " + std::to_string(elements) +
                      " elements in all; a batch holds at most about 2.1e9 slots (int index)");
   const std::uint64_t need = bytes_for(slots, elements, precision);
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-  if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
+  const std::uint64_t memory = physical_memory();
+  if (memory > 0 && need > memory)
     throw SceneError(source + ": the scene needs about " + num(double(need) / 1e9) + " GB (" +
                      std::to_string(elements) + " elements), more than this machine's " +
-                     num(double(pages) * double(page) / 1e9) + " GB of memory");
+                     num(double(memory) / 1e9) + " GB of memory");
 }
 
 // The root and the tip (free, clamped, pinned, each possibly driven), the
@@ -1187,8 +1192,7 @@ void parse_curves(const Table& g, Pending& p) {
   const std::string file = t.text("file");
   p.curve_elements = t.has("elements") ? int(t.integer("elements", 0, 1 << 30)) : 0;
   const double scale = t.has("scale") ? t.positive("scale") : 1.0;
-  const std::string full = !file.empty() && file[0] == '/' ? file : scene_dir(g.ctx.source) + file;
-  g.ctx.inputs.push_back(full);
+  const std::string full = input_file(g.ctx, file);
   try {
     p.curves = read_curves(full);
   } catch (const InputError& e) {
@@ -1381,11 +1385,10 @@ std::uint64_t estimated_batch_bytes(const Scene& s) {
 
 void check_batch_size(const Scene& s) {
   const std::uint64_t need = estimated_batch_bytes(s);
-  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-  if (pages > 0 && page > 0 && need > std::uint64_t(pages) * std::uint64_t(page))
+  const std::uint64_t memory = physical_memory();
+  if (memory > 0 && need > memory)
     throw SceneError(s.source + ": the batch needs about " + num(double(need) / 1e9) +
-                     " GB, more than this machine's " + num(double(pages) * double(page) / 1e9) +
-                     " GB of memory");
+                     " GB, more than this machine's " + num(double(memory) / 1e9) + " GB of memory");
 }
 
 }  // namespace manyrods::scene

@@ -2,9 +2,8 @@
 #include "manyrods/sweep.h"
 #include "setup/static_cache.h"
 
+#include "manyrods/isa.h"
 #include "manyrods/rng.h"
-
-#include <unistd.h>
 
 #include <algorithm>
 #include <map>
@@ -309,9 +308,8 @@ Sweep make_sweep(const std::string& text, const std::string& source, std::vector
   try {
     check_batch_size(sw.scene);
   } catch (const SceneError& e) {  // how many variations would fit in half of the memory
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     const double per = double(estimated_batch_bytes(sw.scene)) / double(sw.points.size());
-    const double fit = std::floor(0.5 * double(pages) * double(page) / per);
+    const double fit = std::floor(0.5 * double(physical_memory()) / per);
     throw SceneError(std::string(e.what()) + "; run the sweep in chunks: --chunk " +
                      std::to_string(static_cast<long long>(std::clamp(fit, 1.0, 1e6))) +
                      " (variations that fit in half of it)");
