@@ -76,6 +76,11 @@ struct ContactView {
   const T* rod_mu = nullptr;  // [4 × rods]
   const int* rod_mu_own = nullptr;
   const int* rod_stiff = nullptr;  // [rods] ContactData::rod_stiff
+  // whether rod `rod` meets the colliders inside the implicit solve
+  // (kernels/contact_solve.h): a stiff rod, or a damped one when the solve
+  // integrates the Kelvin–Voigt term (host/core/step/implicit_plan.h
+  // needs_implicit_solve)
+  MANYRODS_HD bool colliders_in_solve(int rod) const { return rod_stiff[rod] || (solve_kv && rod_damped[rod]); }
   int* elem_count = nullptr;
   int* elem_count_lo = nullptr;  // of them on node k (s < 1)
   int* elem_count_hi = nullptr;  // on node k+1 (s > 0)
@@ -85,6 +90,13 @@ struct ContactView {
   T* work = nullptr;
   T* v_start[3] = {};  // the velocities at the step's start (save_start_velocities)
   T* w_start[3] = {};
+  T* v_solve[3] = {};  // the velocities before the implicit solve (kernels/contact_solve.h)
+  T* w_solve[3] = {};
+  T* ck[6] = {};       // the contact blocks and impulses in the solve (kernels/viscous_implicit.h SolveContactView)
+  T* cr[3] = {};
+  T* cx[6] = {};
+  const int* rod_damped = nullptr;  // [rods] ContactData::rod_damped
+  bool solve_kv = false;  // the implicit solve integrates the Kelvin–Voigt term (damped rods are in it)
   const int* neighbours = nullptr;
   const int* neighbour_count = nullptr;
   int capacity = 0;
@@ -549,7 +561,8 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
     const T reach = h * (T(1) + T(2) * cv.damping_ratio / cv.hardness);
     const T va = max_speed(st, k);
     if constexpr (kColliders) {
-      for (int i = 0; i < cv.collider_count; ++i) {
+      // (a rod the implicit solve steps met them there)
+      for (int i = 0; i < (cv.colliders_in_solve(rod) ? 0 : cv.collider_count); ++i) {
         const ColliderFrame<T>& c = cv.colliders[i];
         T vb = T(0);
         if (c.moving) {

@@ -184,9 +184,23 @@ MANYRODS_HD inline void rigid_shift(int first, int cells, T sign, vec3<T> v0, ve
 // [first, first + cells). Velocities in `s` are u⁻ on entry, u⁺ on exit.
 // kT.kelvin_voigt: the Kelvin–Voigt term is solved here; stiff_h > 0: the
 // shear, stretch and twist stiffness too (stiff rods, see above; 0 otherwise).
+//
+// Contact (kernels/contact_solve.h): `cc` adds the contacts' blocks K
+// (symmetric 3×3: node k's own, and element k's between nodes k and k+1)
+// to the nodes' rows of the system and their impulses r to the right-hand
+// side, (M + hD + K) u⁺ = M u⁻ + r (delta form: the right-hand side
+// −(hD + K) u⁻ + r); nullptr: none.
+template <class T>
+struct SolveContactView {
+  const T* k[6] = {};  // [6][slots] kg: node k's, xx xy xz yy yz zz
+  const T* x[6] = {};  // [6][slots] kg: element k's, between node k (rows) and k+1 (columns)
+  const T* r[3] = {};  // [3][slots] N·s
+};
+
 template <Terms kT, class T>
 MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_h, const ModelView<T>& m,
-                                             const StateView<T>& s, const ImplicitScratchView<T>& sc) {
+                                             const StateView<T>& s, const ImplicitScratchView<T>& sc,
+                                             const SolveContactView<T>* cc = nullptr) {
   using namespace viscous_detail;
   const ConstStateView<T> cs = as_const(s);
   const bool delta = stiff_h == T(0);  // delta form (see below) for all but stiff rods
@@ -226,6 +240,15 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
       voronoi_maps<kT>(k, stiff_h, m, cs, w, c1, c2);
       add_xtwy(A, 3, 3, c2, w, c2, h);
     }
+    // the contacts' blocks (in the delta form's right-hand side too, below)
+    if (cc) {
+      const int at[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          A.a[6 * i + j] += cc->k[at[i][j]][k];
+          if (c + 1 < cells) U.a[6 * i + j] += cc->x[at[i][j]][k];
+        }
+    }
     // mass; fixed unknowns (zero inverse mass) become identity rows
     const T minv[6] = {m.node_inv_mass[k], m.node_inv_mass[k], m.node_inv_mass[k],
                        m.elem_inv_inertia[0][k], m.elem_inv_inertia[1][k], m.elem_inv_inertia[2][k]};
@@ -260,6 +283,8 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
     } else {
       for (int i = 0; i < 6; ++i) y[i] = mass[i] * u[i];
     }
+    if (cc)
+      for (int i = 0; i < 3; ++i) y[i] += cc->r[i][k];
     for (int i = 0; i < 6; ++i) A.a[7 * i] += mass[i];
     // elimination: Â_c = A_c − U_{c−1}ᵀ G_{c−1},  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1}
     for (int i = 0; i < 6; ++i) {

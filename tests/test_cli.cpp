@@ -192,14 +192,8 @@ TEST(Cli, ExampleScenesRun) {
     SCOPED_TRACE(e.file);
     const std::string out = path(std::string(e.file) + ".h5");
     const Result r = cli("run " + scenes + "/" + e.file + ".toml -o " + out + " --duration " + e.duration);
-    // hair_turn's hair tips still shear to ~0.15 for a few steps where they
-    // hit the head (17 of its first 1,080 steps, docs/scenes.md "The validity
-    // monitor"): whether a sample of the monitor (every 64th step) lands on
-    // one depends on the machine's rounding, so it may end with a strain
-    // warning (exit 3), rightly; contact acts after the stiff solve. Every
-    // other example ends with exit 0.
-    if (std::string(e.file) == "hair_turn" && r.status == 3) expect_contains(r.err, "(stretch/shear) has strain");
-    else ASSERT_EQ(r.status, 0) << r.err;
+    // every example ends without a warning (exit 0)
+    ASSERT_EQ(r.status, 0) << r.err;
     const h5::Reader rd(out);
     EXPECT_EQ(int(rd.output().node_offsets.size()) - 1, e.rods);
     EXPECT_GE(rd.frames(), 2);
@@ -1134,8 +1128,10 @@ TEST(Cli, TheBudgetWithTheDissipatedEnergyClosesAtFirstOrderThroughContact) {
   // friction) for 2 s. K + E + U + dissipated − contact work should stay at
   // its start; its residual is the implicit solve's error (backward Euler,
   // first order: with h τ ω² ≈ 200 at the stable step the sampled 2·D_v
-  // overstates what the solve removes), so it halves with the step
-  // (self-convergence; measured 8.2e-3, 3.4e-3, 1.6e-3 J of a 1.0e-2 J loss).
+  // overstates what the solve removes), so it falls at least in proportion
+  // to the step (self-convergence). The contacts are in the solve (the rope
+  // is damped): measured 2.0 %, 0.70 %, 0.15 % of the loss (with contact
+  // after the solve it was 78 %, 32 %, 16 %).
   std::vector<double> residual;
   for (const char* safety : {"0.9", "0.45", "0.225"}) {
     const std::string scene = write_scene(
@@ -1162,10 +1158,14 @@ TEST(Cli, TheBudgetWithTheDissipatedEnergyClosesAtFirstOrderThroughContact) {
     residual.push_back(std::abs(budget(e.back()) - budget(e.front())) / loss);
   }
   std::printf("drape: budget residual %.3g, %.3g, %.3g of the energy lost\n", residual[0], residual[1], residual[2]);
-  for (int i = 0; i < 2; ++i) {
-    EXPECT_GT(residual[i + 1] / residual[i], 0.3) << i;
-    EXPECT_LT(residual[i + 1] / residual[i], 0.7) << i;
-  }
+  // at least first order: halving the step at least halves it (0.6: the
+  // ratio of a first-order error, 0.5, with room for the sampling of 2·D_v
+  // at the frames)
+  for (int i = 0; i < 2; ++i) EXPECT_LT(residual[i + 1] / residual[i], 0.6) << i;
+  // and at the stable step it is a small part of what the rope lost: a
+  // contact acting outside the solve left 78 % (the solve's error alone is
+  // O(h/τ) of the viscous loss: h ≈ 1.5e-4 s against τ = 0.01 s)
+  EXPECT_LT(residual[0], 0.05);
 }
 
 TEST(Cli, FramesFallOnExactMultiplesOfTheOutputInterval) {

@@ -27,8 +27,9 @@ enum class Stage {
   kick,            // v += h m⁻¹ F, ω += h J⁻¹ C (kernels/integrate.h)
   fluid,           // drag, buoyancy and wind, around the kick (kernels/fluid.h)
   implicit_solve,  // per-rod backward-Euler solve (kernels/viscous_implicit*.h)
+  contact_solve,   // the solve again with collider contacts, rods that touch one (kernels/contact_solve.h)
   broad_phase,     // rod–rod candidate lists, when they need rebuilding (host/core/step/broad_phase.cpp)
-  contact,         // contact impulses and friction (kernels/contact.h)
+  contact,         // narrow phase: contact impulses and friction after the solve (kernels/contact.h)
   renormalize,     // float frames back to orthonormal (kernels/integrate.h)
   count
 };

@@ -251,9 +251,11 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);
   c.rod_near.assign(std::size_t(b.rod_count()), 1);
   c.rod_stiff.assign(std::size_t(b.rod_count()), 0);
+  c.rod_damped.assign(std::size_t(b.rod_count()), 0);
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodInfo& info = b.rods[r];
     c.rod_stiff[r] = info.stiff_implicit ? 1 : 0;
+    c.rod_damped[r] = info.damped ? 1 : 0;
     const bool own = !spec.rod_friction.empty() && spec.rod_has_friction[r];
     to4(own ? spec.rod_friction[r] : spec.friction, c.rod_mu.data() + 4 * r);
     c.rod_mu_own[r] = own ? 1 : 0;

@@ -35,8 +35,10 @@
 namespace manyrods {
 
 // Kernel view of the batch's contact data with the colliders placed by `frames`.
+// solve_kv: the implicit solve integrates the Kelvin–Voigt term (its damped
+// rods meet the colliders there, ContactView::colliders_in_solve).
 template <class T>
-ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
+ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool solve_kv = false) {
   ContactData<T>& c = b.contact;
   ContactView<T> v;
   v.colliders = frames;
@@ -48,6 +50,8 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames) {
   v.rod_mu = c.rod_mu.data();
   v.rod_mu_own = c.rod_mu_own.data();
   v.rod_stiff = c.rod_stiff.data();
+  v.rod_damped = c.rod_damped.data();
+  v.solve_kv = solve_kv;
   v.neighbours = c.neighbours.data();
   v.capacity = c.capacity;
   v.hardness = T(c.spec.hardness);
@@ -90,12 +94,15 @@ void for_slots(int begin, int end, const Exec& ex, F&& f) {
 // node and element applies what its elements gathered. With rod contact r
 // must be the whole batch (partners may be anywhere).
 // reads: model, state, contact data  writes: state.node_v, elem_w, contact scratch and work
+// solve_kv: as contact_view's (the colliders of the rods the solve steps
+// were met in host/core/step/contact_solve.h).
 template <Terms kT, class T>
-void contact_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r) {
+void contact_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r,
+                   bool solve_kv = false) {
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
   const ConstStateView<T> cs = std::as_const(b).state_view();
-  const ContactView<T> cv = contact_view(b, frames);
+  const ContactView<T> cv = contact_view(b, frames, solve_kv);
   constexpr bool kC = kT.colliders, kR = kT.rod_contact;
   detail::for_slots(r.begin, r.end, ex, [&](int k) { element_contacts<kC, kR, false>(k, h, m, cs, cv); });
   detail::for_slots(r.begin, r.end, ex, [&](int k) { element_contacts<kC, kR, true>(k, h, m, cs, cv); });
@@ -163,11 +170,12 @@ void refuse_contact(const char* integrator) {
 // The stage: [broad phase,] contact impulses on segment r (the whole batch
 // when contact_couples_rods), with the colliders placed by `frames`.
 template <Terms kT, class T>
-void contact_step(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r, int thread) {
+void contact_step(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r, int thread,
+                  bool solve_kv) {
   if constexpr (contact_couples_rods<kT>())
     timed(ex, thread, Stage::broad_phase, [&] { update_neighbours(b, h, ex); });
   if constexpr (kT.colliders || kT.rod_contact)
-    timed(ex, thread, Stage::contact, [&] { contact_stage<kT>(b, h, frames, ex, r); });
+    timed(ex, thread, Stage::contact, [&] { contact_stage<kT>(b, h, frames, ex, r, solve_kv); });
 }
 
 }  // namespace manyrods

@@ -38,14 +38,14 @@ namespace detail {
 // its rigid field; +1 adds it back. Ω = Q_gᵀ ω_g and the hold's x do not
 // change in the solve. Other held unknowns keep their (shifted) prescribed
 // velocities: the scalar kernel's delta form solves their rods
-// (RodInfo::prescribed).
+// (RodInfo::prescribed). shift_hold: hold i alone; shift_reference_holds:
+// the reference holds of the rods segment r solves.
 template <class T>
-void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
+void shift_hold(RodBatch<T>& b, int i, T sign) {
   const StateView<T> s = b.state_view();
-  for (int i = r.driven_begin; i < r.driven_end; ++i) {
-    const DrivenHold& d = b.driven[i];
+  {
+    const DrivenHold& d = b.driven[std::size_t(i)];
     const RodInfo& rod = b.rods[d.rod];
-    if (!d.reference || !needs_implicit_solve(rod, kelvin_voigt)) continue;
     T* saved = b.workspace->driven_root_velocity.data() + 6 * std::size_t(i);
     const int k = d.node, g = d.frame[0];
     vec3<T> root[2];
@@ -63,6 +63,13 @@ void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, 
     const vec3<T> zero{T(0), T(0), T(0)};
     store3(s.node_v, k, sign > T(0) ? root[0] : zero);
     store3(s.elem_w, g, sign > T(0) ? root[1] : zero);
+  }
+}
+template <class T>
+void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
+  for (int i = r.driven_begin; i < r.driven_end; ++i) {
+    const DrivenHold& d = b.driven[i];
+    if (d.reference && needs_implicit_solve(b.rods[d.rod], kelvin_voigt)) shift_hold(b, i, sign);
   }
 }
 

@@ -13,6 +13,8 @@
 //   3. kick h:    v += h m⁻¹ F,  ω += h J⁻¹ C                  segment_kick
 //      (a fluid) v saved before the kick                       fluid_save_stage
 //   4. (M + hD) u⁺ = M u for damped and stiff rods             viscous_update
+//   4a. (colliders) the rods of 4 that touch one solved again
+//      with their contacts in the system                        contact_solve_stage
 //   4b. (a fluid) kick and solve redone with the drag as an exact flow  fluid_stage
 //   4c. (contact Terms) [broad phase,] contact impulses         contact_step
 //   5. drift ½h                                                drift
@@ -32,6 +34,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "host/core/step/contact_solve.h"
 #include "host/core/step/contact_stage.h"
 #include "host/core/step/diagnostics.h"
 #include "host/core/step/fluid_stage.h"
@@ -90,14 +93,18 @@ void verlet_stages(RodBatch<T>& b, T dt, double t, std::int64_t done, bool solve
     const bool fluid = b.any_fluid();
     if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_save_stage(b, e, r); });
     timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
+    if constexpr (kT.colliders)
+      if (solve) timed(e, thread, Stage::contact_solve, [&] { contact_solve_save(b, e, r); });
     if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+    if constexpr (kT.colliders)
+      if (solve) timed(e, thread, Stage::contact_solve, [&] { contact_solve_stage<kSolve>(b, dt, frames, e, r, thread); });
     // after the solve: a stiff rod's kick leaves its unresolved stiff modes in
     // the velocities, which the drag's decay must not scale (the solve would
     // then no longer cancel them); the velocity update of kick and solve
     // together is the drag flow's frozen forcing (the kick's time: mid-step)
     if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_stage(b, dt, t + 0.5 * double(dt), kT.gravity, e, r); });
   }
-  if (part == Part::all || part == Part::contact) contact_step<kT>(b, dt, frames, e, r, thread);
+  if (part == Part::all || part == Part::contact) contact_step<kT>(b, dt, frames, e, r, thread, kSolve.kelvin_voigt);
   if (part == Part::all || part == Part::after_contact) {
     timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
     if (renormalize_after<T>(done)) timed(e, thread, Stage::renormalize, [&] { renormalize_frames(b, e, r); });

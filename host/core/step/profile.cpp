@@ -11,6 +11,7 @@ const char* stage_name(Stage s) {
     case Stage::kick: return "kick";
     case Stage::fluid: return "fluid";
     case Stage::implicit_solve: return "implicit_solve";
+    case Stage::contact_solve: return "contact_solve";
     case Stage::broad_phase: return "broad_phase";
     case Stage::contact: return "contact";
     case Stage::renormalize: return "renormalize";

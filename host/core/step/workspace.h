@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "kernels/contact_solve.h"
 #include "manyrods/array.h"
 #include "manyrods/batch.h"
 
@@ -30,6 +31,15 @@ struct SolveGroup {
   bool half = false;
   int parts = 0;
   std::size_t offset = 0;
+};
+
+// One thread's buffers of the contact solve (host/core/step/contact_solve.h):
+// a rod's collider contacts, its velocities before the solve (6 × cells) and
+// its nodes' contact weights (cells).
+template <class T>
+struct ContactSolveBuffer {
+  std::vector<SolveContact<T>> contacts;
+  std::vector<T> u, weight;
 };
 
 // Which rods the implicit solve visits, grouped once when the batch is built.
@@ -63,6 +73,8 @@ struct StepWorkspace {
   // driven root, kept across the implicit solve (which runs on velocities
   // relative to the root's rigid motion); entry i belongs to RodBatch::driven[i]
   std::vector<T> driven_root_velocity;
+  // one per thread (host/core/step/contact_solve.h), grown on first use
+  std::vector<ContactSolveBuffer<T>> contact_solve;
   // Slots whose rotation exceeded the branch-free kernels' range in the
   // current stage (host/core/step/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
