@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <stdexcept>
 
 #include "host/core/step/contact_stage.h"
 #include "host/core/step/implicit_solve.h"
@@ -181,9 +182,15 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
   const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt);
   if (cv.collider_count == 0) return;
+  // one buffer per thread, reserved by the driver before its parallel
+  // region (host/core/step/integrators.h prepare_solve); a call from
+  // elsewhere (one thread) grows them here
   std::vector<ContactSolveBuffer<T>>& bufs = b.workspace->contact_solve;
-  const int threads = std::max(ex.threads, 1);
-  if (int(bufs.size()) < std::max(threads, thread + 1)) bufs.resize(std::size_t(std::max(threads, thread + 1)));
+  const int need = std::max(ex.threads, thread + 1);
+  if (int(bufs.size()) < need) {
+    if (omp_in_parallel()) throw std::logic_error("contact_solve_stage: buffers not reserved before a parallel region");
+    bufs.resize(std::size_t(need));
+  }
   auto one = [&](int ri, int t) {
     if (!needs_implicit_solve(b.rods[std::size_t(ri)], kSolve.kelvin_voigt)) return;
     ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];

@@ -116,6 +116,10 @@ template <Terms kT, Viscous kV, class T>
 bool prepare_solve(RodBatch<T>& b, const Exec& ex) {
   const bool solve = detail::solve_terms<kT, kV>().kelvin_voigt || b.any_stiff();
   if (solve) b.reserve_implicit_scratch(ex.threads);
+  // the contact solve's buffers, one per thread (before any parallel region)
+  if constexpr (kT.colliders)
+    if (solve && int(b.workspace->contact_solve.size()) < std::max(ex.threads, 1))
+      b.workspace->contact_solve.resize(std::size_t(std::max(ex.threads, 1)));
   return solve;
 }
 }  // namespace detail
