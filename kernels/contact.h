@@ -76,11 +76,10 @@ struct ContactView {
   const T* rod_mu = nullptr;  // [4 × rods]
   const int* rod_mu_own = nullptr;
   const int* rod_stiff = nullptr;  // [rods] ContactData::rod_stiff
-  // whether rod `rod` meets the colliders inside the implicit solve
-  // (kernels/contact_solve.h): a stiff rod, or a damped one when the solve
-  // integrates the Kelvin–Voigt term (host/core/step/implicit_plan.h
-  // needs_implicit_solve)
-  MANYRODS_HD bool colliders_in_solve(int rod) const { return rod_stiff[rod] || (solve_kv && rod_damped[rod]); }
+  // [rods] 1: the rod meets the colliders inside the implicit solve
+  // (kernels/contact_solve.h): ContactData::rod_in_solve of the step's solve
+  const int* rod_in_solve = nullptr;
+  MANYRODS_HD bool colliders_in_solve(int rod) const { return rod_in_solve[rod] != 0; }
   int* elem_count = nullptr;
   int* elem_count_lo = nullptr;  // of them on node k (s < 1)
   int* elem_count_hi = nullptr;  // on node k+1 (s > 0)
@@ -95,8 +94,6 @@ struct ContactView {
   T* ck[6] = {};       // the contact blocks and impulses in the solve (kernels/viscous_implicit.h SolveContactView)
   T* cr[3] = {};
   T* cx[6] = {};
-  const int* rod_damped = nullptr;  // [rods] ContactData::rod_damped
-  bool solve_kv = false;  // the implicit solve integrates the Kelvin–Voigt term (damped rods are in it)
   const int* neighbours = nullptr;
   const int* neighbour_count = nullptr;
   int capacity = 0;
@@ -300,6 +297,19 @@ MANYRODS_HD inline vec3<T> collider_velocity(const ColliderFrame<T>& c, vec3<T> 
   return mul(A, p - contact_detail::v3(c.c)) + contact_detail::v3(c.u);
 }
 
+// The contact range of element x0 → x1 (radius r, fastest node va) against
+// collider c (element_contacts): reach (va + vb) + ½ r, vb the collider's
+// fastest body velocity at the element's ends.
+template <class T>
+MANYRODS_HD inline T collider_range(const ColliderFrame<T>& c, vec3<T> x0, vec3<T> x1, T r, T va, T reach) {
+  T vb = T(0);
+  if (c.moving) {
+    const T vb0 = norm(collider_velocity(c, x0)), vb1 = norm(collider_velocity(c, x1));
+    vb = vb0 > vb1 ? vb0 : vb1;
+  }
+  return reach * (va + vb) + T(0.5) * r;
+}
+
 // One side of a contact that is an element: its slot, point, lever and what
 // its nodes and frame lend the contact.
 template <class T>
@@ -313,6 +323,21 @@ struct ContactSide {
   vec3<T> d3{0, 0, 1};   // the element's axis (lab)
 };
 
+// The translational compliance of the contact at s on an element whose
+// nodes have inverse masses im0, im1 and lend c0, c1 contacts each (a
+// count of 0 counts as 1): (1 − s)² c0/m0 + s² c1/m1, at least ¼ of the
+// free node's where one node is held (see element_side).
+template <class T>
+MANYRODS_HD inline T contact_compliance(T s, T im0, T im1, T c0, T c1) {
+  const T w0 = im0 * (c0 > T(0) ? c0 : T(1)), w1 = im1 * (c1 > T(0) ? c1 : T(1));
+  T w = (T(1) - s) * (T(1) - s) * w0 + s * s * w1;
+  if ((w0 == T(0)) != (w1 == T(0))) {
+    const T wmid = T(0.25) * (w0 + w1);
+    w = w > wmid ? w : wmid;
+  }
+  return w;
+}
+
 template <class T>
 MANYRODS_HD inline ContactSide<T> element_side(int k, T s, vec3<T> rho, const ModelView<T>& m,
                                                const ConstStateView<T>& st, const ContactView<T>& cv) {
@@ -323,17 +348,12 @@ MANYRODS_HD inline ContactSide<T> element_side(int k, T s, vec3<T> rho, const Mo
   // the contacts on node k: element k−1's on its far node, element k's on its near one
   const T c0 = T(cv.elem_count_hi[k - 1] + cv.elem_count_lo[k]), c1 = T(cv.elem_count_hi[k] + cv.elem_count_lo[k + 1]);
   const T ce = T(cv.elem_count[k] > 0 ? cv.elem_count[k] : 1);
-  const T w0 = m.node_inv_mass[k] * (c0 > T(0) ? c0 : T(1)), w1 = m.node_inv_mass[k + 1] * (c1 > T(0) ? c1 : T(1));
-  o.w = (T(1) - s) * (T(1) - s) * w0 + s * s * w1;
   // A held node (clamped, driven: w = 0) would make the element a lever
   // about it: a contact at s → 0 would throw the free node at 1/s times
   // the velocity the contact needs. Such an element lends a contact at
   // most the stiffness it lends one at its middle (w ≥ ¼ w_free): the
   // held end takes the rest (docs/contact.md "Effective mass and mass splitting").
-  if ((w0 == T(0)) != (w1 == T(0))) {
-    const T wmid = T(0.25) * (w0 + w1);
-    o.w = o.w > wmid ? o.w : wmid;
-  }
+  o.w = contact_compliance(s, m.node_inv_mass[k], m.node_inv_mass[k + 1], c0, c1);
   const mat3<T> Q = load_frame(st.elem_Q, k);
   const vec3<T> wl = mul_transpose(Q, load3(st.elem_w, k));  // lab angular velocity
   o.v = (T(1) - s) * load3(st.node_v, k) + s * load3(st.node_v, k + 1) + cross(wl, rho);
@@ -368,6 +388,16 @@ MANYRODS_HD inline T normal_impulse(T gap, T vn, T mc, T h, T omega, T zeta) {
   return lam > T(0) ? lam : T(0);
 }
 
+// Whether the tangential impulse (p_a along the axis, p_t across) lies in
+// the elliptic cone (p_a/μ_a)² + (p_t/μ_t)² ≤ λ² (a zero coefficient
+// admits no impulse along its direction).
+template <class T>
+MANYRODS_HD inline bool in_elliptic_cone(T pa, T pt, T mu_a, T mu_t, T lam) {
+  const T qa = mu_a > T(0) ? pa / mu_a : (pa != T(0) ? T(1e30) : T(0));
+  const T qt = mu_t > T(0) ? pt / mu_t : (pt != T(0) ? T(1e30) : T(0));
+  return qa * qa + qt * qt <= lam * lam;
+}
+
 // The Coulomb impulse (see the header) for slip velocity vt in the plane ⟂ n,
 // compliance C (symmetric 3×3: xx xy xz yy yz zz), normal impulse lam,
 // coefficients mu = {static, kinetic, static axial, kinetic axial} (axial < 0:
@@ -397,10 +427,7 @@ MANYRODS_HD inline vec3<T> coulomb_impulse(vec3<T> n, vec3<T> vt, const T C[6], 
     ea = (T(1) / ea_len) * ea;
     const vec3<T> et = cross(n, ea);
     const T ms[2] = {mu[2], mu[0]}, mk[2] = {mu[3] >= T(0) ? mu[3] : mu[1], mu[1]};
-    const T pa = dot(stick, ea), pt = dot(stick, et);
-    const T qa = ms[0] > T(0) ? pa / ms[0] : (pa != T(0) ? T(1e30) : T(0));
-    const T qt = ms[1] > T(0) ? pt / ms[1] : (pt != T(0) ? T(1e30) : T(0));
-    if (qa * qa + qt * qt <= lam * lam) return stick;
+    if (in_elliptic_cone(dot(stick, ea), dot(stick, et), ms[0], ms[1], lam)) return stick;
     const T va = dot(vt, ea), vv = dot(vt, et);
     const T nrm = norm(vec3<T>{mk[0] * va, mk[1] * vv, T(0)});
     if (!(nrm > T(0))) return zero;
@@ -564,12 +591,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
       // (a rod the implicit solve steps met them there)
       for (int i = 0; i < (cv.colliders_in_solve(rod) ? 0 : cv.collider_count); ++i) {
         const ColliderFrame<T>& c = cv.colliders[i];
-        T vb = T(0);
-        if (c.moving) {
-          const T vb0 = norm(collider_velocity(c, x0)), vb1 = norm(collider_velocity(c, x1));
-          vb = vb0 > vb1 ? vb0 : vb1;
-        }
-        const T delta = reach * (va + vb) + T(0.5) * r;
+        const T delta = collider_range(c, x0, x1, r, va, reach);
         Touch<T> touch[3];
         const int nt = collider_touches(c, x0, x1, r, touch);
         for (int j = 0; j < nt; ++j) {

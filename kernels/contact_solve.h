@@ -123,11 +123,7 @@ template <class T>
 MANYRODS_HD inline bool in_static_cone(const SolveContact<T>& c, vec3<T> p, T lam) {
   const vec3<T> ea = axial_direction(c);
   if (ea.x == T(0) && ea.y == T(0) && ea.z == T(0)) return norm(p) <= c.mu[0] * lam;
-  const vec3<T> et = cross(c.n, ea);
-  const T pa = dot(p, ea), pt = dot(p, et);
-  const T qa = c.mu[2] > T(0) ? pa / c.mu[2] : (pa != T(0) ? T(1e30) : T(0));
-  const T qt = c.mu[0] > T(0) ? pt / c.mu[0] : (pt != T(0) ? T(1e30) : T(0));
-  return qa * qa + qt * qt <= lam * lam;
+  return in_elliptic_cone(dot(p, ea), dot(p, cross(c.n, ea)), c.mu[2], c.mu[0], lam);
 }
 
 // The kinetic Coulomb impulse of λ against the slip direction `slip`

@@ -141,7 +141,10 @@ struct ContactData {
   std::vector<T> rod_mu;  // [4 × rods] the rods' friction against rods; rod_mu_own[r]: set by the rod
   std::vector<int> rod_mu_own;
   std::vector<int> rod_stiff;  // [rods] 1: a stiff rod (RodSpec::stiff_implicit; kernels/contact.h element_side, apply_contact)
-  std::vector<int> rod_damped;  // [rods] 1: a damped rod (RodInfo::damped: in the implicit solve with the Kelvin–Voigt term)
+  // [2][rods] 1: the implicit solve steps the rod, [0] without and [1] with
+  // the Kelvin–Voigt term solved (host/core/step/implicit_plan.h
+  // needs_implicit_solve): its collider contacts are in the solve
+  std::array<std::vector<int>, 2> rod_in_solve;
   std::vector<int> rod_near;  // [rods] elements |i − j| ≤ this apart touch at the tight-loop chord (kernels/contact.h near_contact_distance)
   // rod–rod broad phase (docs/contact.md "Finding rod–rod contacts")
   Array<int> neighbours;               // [slots × capacity] candidate partner slots of element k, in order

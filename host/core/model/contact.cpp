@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "host/core/step/contact_stage.h"
+#include "host/core/step/implicit_plan.h"
 #include "kernels/views.h"
 #include "manyrods/material.h"
 
@@ -251,11 +252,11 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);
   c.rod_near.assign(std::size_t(b.rod_count()), 1);
   c.rod_stiff.assign(std::size_t(b.rod_count()), 0);
-  c.rod_damped.assign(std::size_t(b.rod_count()), 0);
+  for (auto& in : c.rod_in_solve) in.assign(std::size_t(b.rod_count()), 0);
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodInfo& info = b.rods[r];
     c.rod_stiff[r] = info.stiff_implicit ? 1 : 0;
-    c.rod_damped[r] = info.damped ? 1 : 0;
+    for (int kv = 0; kv < 2; ++kv) c.rod_in_solve[kv][r] = needs_implicit_solve(info, kv == 1) ? 1 : 0;
     const bool own = !spec.rod_friction.empty() && spec.rod_has_friction[r];
     to4(own ? spec.rod_friction[r] : spec.friction, c.rod_mu.data() + 4 * r);
     c.rod_mu_own[r] = own ? 1 : 0;

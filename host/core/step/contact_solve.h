@@ -63,9 +63,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
     const T va = max_speed(st, k);
     for (int i = 0; i < cv.collider_count; ++i) {
       const ColliderFrame<T>& c = cv.colliders[i];
-      T vb = T(0);
-      if (c.moving) vb = std::max(norm(collider_velocity(c, x0)), norm(collider_velocity(c, x1)));
-      const T delta = reach * (va + vb) + T(0.5) * r;
+      const T delta = collider_range(c, x0, x1, r, va, reach);
       Touch<T> touch[3];
       const int nt = collider_touches(c, x0, x1, r, touch);
       for (int j = 0; j < nt; ++j) {
@@ -88,10 +86,8 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   bool any = false;
   for (SolveContact<T>& c : buf.contacts) {
     // the contact's mass (kernels/contact.h element_side)
-    const T w0 = m.node_inv_mass[c.k] * std::max(buf.weight[std::size_t(c.k - first)], T(1));
-    const T w1 = m.node_inv_mass[c.k + 1] * std::max(buf.weight[std::size_t(c.k + 1 - first)], T(1));
-    T w = (T(1) - c.s) * (T(1) - c.s) * w0 + c.s * c.s * w1;
-    if ((w0 == T(0)) != (w1 == T(0))) w = std::max(w, T(0.25) * (w0 + w1));
+    const T w = contact_compliance(c.s, m.node_inv_mass[c.k], m.node_inv_mass[c.k + 1],
+                                   buf.weight[std::size_t(c.k - first)], buf.weight[std::size_t(c.k + 1 - first)]);
     if (!(w > T(0))) continue;  // both nodes held
     c.a = T(1) / w;
     solve_contact_update(c, point_velocity(c, st.node_v), h, cv.hardness, cv.damping_ratio);
@@ -192,7 +188,7 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
     bufs.resize(std::size_t(need));
   }
   auto one = [&](int ri, int t) {
-    if (!needs_implicit_solve(b.rods[std::size_t(ri)], kSolve.kelvin_voigt)) return;
+    if (!cv.colliders_in_solve(ri)) return;
     ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
     if (!detail::find_solve_contacts(b, ri, h, cv, buf)) return;
     int hold = -1;

@@ -50,8 +50,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool
   v.rod_mu = c.rod_mu.data();
   v.rod_mu_own = c.rod_mu_own.data();
   v.rod_stiff = c.rod_stiff.data();
-  v.rod_damped = c.rod_damped.data();
-  v.solve_kv = solve_kv;
+  v.rod_in_solve = c.rod_in_solve[solve_kv ? 1 : 0].data();
   v.neighbours = c.neighbours.data();
   v.capacity = c.capacity;
   v.hardness = T(c.spec.hardness);

@@ -43,27 +43,25 @@ namespace detail {
 template <class T>
 void shift_hold(RodBatch<T>& b, int i, T sign) {
   const StateView<T> s = b.state_view();
-  {
-    const DrivenHold& d = b.driven[std::size_t(i)];
-    const RodInfo& rod = b.rods[d.rod];
-    T* saved = b.workspace->driven_root_velocity.data() + 6 * std::size_t(i);
-    const int k = d.node, g = d.frame[0];
-    vec3<T> root[2];
-    if (sign < T(0)) {
-      root[0] = load3(s.node_v, k);
-      root[1] = load3(s.elem_w, g);
-      const T keep[6] = {root[0].x, root[0].y, root[0].z, root[1].x, root[1].y, root[1].z};
-      for (int c = 0; c < 6; ++c) saved[c] = keep[c];
-    } else {
-      root[0] = {saved[0], saved[1], saved[2]};
-      root[1] = {saved[3], saved[4], saved[5]};
-    }
-    const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, g), root[1]);
-    rigid_shift(rod.offset + 1, rod.elements + 1, sign, root[0], omega, load3(s.node_x, k), s);
-    const vec3<T> zero{T(0), T(0), T(0)};
-    store3(s.node_v, k, sign > T(0) ? root[0] : zero);
-    store3(s.elem_w, g, sign > T(0) ? root[1] : zero);
+  const DrivenHold& d = b.driven[std::size_t(i)];
+  const RodInfo& rod = b.rods[d.rod];
+  T* saved = b.workspace->driven_root_velocity.data() + 6 * std::size_t(i);
+  const int k = d.node, g = d.frame[0];
+  vec3<T> root[2];
+  if (sign < T(0)) {
+    root[0] = load3(s.node_v, k);
+    root[1] = load3(s.elem_w, g);
+    const T keep[6] = {root[0].x, root[0].y, root[0].z, root[1].x, root[1].y, root[1].z};
+    for (int c = 0; c < 6; ++c) saved[c] = keep[c];
+  } else {
+    root[0] = {saved[0], saved[1], saved[2]};
+    root[1] = {saved[3], saved[4], saved[5]};
   }
+  const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, g), root[1]);
+  rigid_shift(rod.offset + 1, rod.elements + 1, sign, root[0], omega, load3(s.node_x, k), s);
+  const vec3<T> zero{T(0), T(0), T(0)};
+  store3(s.node_v, k, sign > T(0) ? root[0] : zero);
+  store3(s.elem_w, g, sign > T(0) ? root[1] : zero);
 }
 template <class T>
 void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
