@@ -984,11 +984,15 @@ TEST(Cli, AKilledRunResumesToTheUninterruptedResultBitForBit) {
     status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
     if (status == 137 || status == 124) ++kills;
     else ASSERT_EQ(status, 0) << slurp(path("stderr.txt"));
-    // what was closed so far is readable while the run is stopped
+    // what was closed so far is readable while the run is stopped (every
+    // part opens; the last one with frames gives its last frame: a part
+    // closed at a checkpoint that fell before the first frame after a
+    // resume holds none)
     if (status != 0 && !looked) {
       const std::vector<std::string> parts = scene::list_parts(out);
-      if (!parts.empty()) {
-        const h5::Reader part(parts.back());
+      for (auto p = parts.rbegin(); p != parts.rend() && !looked; ++p) {
+        const h5::Reader part(*p);
+        if (part.frames() == 0) continue;
         std::vector<double> x;
         part.read_positions(part.frames() - 1, x);
         EXPECT_EQ(x.size(), std::size_t(64 * 33 * 3));
