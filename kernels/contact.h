@@ -91,9 +91,6 @@ struct ContactView {
   T* w_start[3] = {};
   T* v_solve[3] = {};  // the velocities before the implicit solve (kernels/contact_solve.h)
   T* w_solve[3] = {};
-  T* ck[6] = {};       // the contact blocks and impulses in the solve (kernels/viscous_implicit.h SolveContactView)
-  T* cr[3] = {};
-  T* cx[6] = {};
   const int* neighbours = nullptr;
   const int* neighbour_count = nullptr;
   int capacity = 0;

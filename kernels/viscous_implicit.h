@@ -51,12 +51,23 @@
 // by the rod's cell c = 0 … cells−1 (the host passes a per-thread buffer)
 #pragma once
 
+#include <cstddef>
+
 #include "kernels/resultants.h"
 #include "kernels/strains.h"
 
 namespace manyrods {
 
 namespace viscous_detail {
+
+// Lower triangle of a symmetric 6×6, row by row: (i, j), j ≤ i.
+MANYRODS_HD constexpr int lt(int i, int j) { return i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i; }
+// U's 27 stored entries: (i, j) unless i < 3 ≤ j (the zero block v_c–ω_{c+1}).
+MANYRODS_HD constexpr int ui(int i, int j) {
+  return i < 3 ? 3 * i + j : (j < 3 ? 9 + 3 * (i - 3) + j : 18 + 3 * (i - 3) + j - 3);
+}
+// First row of U's column j that is not structurally zero.
+MANYRODS_HD constexpr int u_row0(int j) { return j >= 3 ? 3 : 0; }
 
 template <class T>
 struct Block6 {
@@ -185,22 +196,31 @@ MANYRODS_HD inline void rigid_shift(int first, int cells, T sign, vec3<T> v0, ve
 // kT.kelvin_voigt: the Kelvin–Voigt term is solved here; stiff_h > 0: the
 // shear, stretch and twist stiffness too (stiff rods, see above; 0 otherwise).
 //
-// Contact (kernels/contact_solve.h): `cc` adds the contacts' blocks K
-// (symmetric 3×3: node k's own, and element k's between nodes k and k+1)
-// to the nodes' rows of the system and their impulses r to the right-hand
-// side, (M + hD + K) u⁺ = M u⁻ + r (delta form: the right-hand side
-// −(hD + K) u⁻ + r); nullptr: none.
+// `keep` (nullptr: not kept): the factors kept for more right-hand sides
+// (FactorView below, W = 1, from cell 0).
+
+// The factors of the elimination kept for more right-hand sides
+// (viscous_solve_factored; the contacts of kernels/contact_solve.h), as the
+// lane kernel (viscous_implicit_lanes with kKeep) and viscous_implicit_rod
+// (with `keep`) leave them: value a of group cell g, lane l, at
+// keep[a][g·W + l], a = kKeepL + lt(i, j) the Cholesky factor of Â_g (lower
+// triangle, 1/L_ii on the diagonal), kKeepU + ui(i, j) U_g (with the fixed
+// unknowns' rows and columns zeroed), kKeepMinv + i the inverse node mass
+// and element inertias (0: fixed unknowns); G_g in the scratch's G[·][g·W + l].
+inline constexpr int kKeepL = 0, kKeepU = 21, kKeepMinv = 48, kKeepValues = 52;
+
 template <class T>
-struct SolveContactView {
-  const T* k[6] = {};  // [6][slots] kg: node k's, xx xy xz yy yz zz
-  const T* x[6] = {};  // [6][slots] kg: element k's, between node k (rows) and k+1 (columns)
-  const T* r[3] = {};  // [3][slots] N·s
+struct FactorView {
+  const T* keep[kKeepValues] = {};
+  const T* G[36] = {};
+  int W = 1, lane = 0, start = 0;  // the rod's cell c is the group's cell start + c
+  MANYRODS_HD int at(int c) const { return (start + c) * W + lane; }
 };
 
 template <Terms kT, class T>
 MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_h, const ModelView<T>& m,
                                              const StateView<T>& s, const ImplicitScratchView<T>& sc,
-                                             const SolveContactView<T>* cc = nullptr) {
+                                             T* const* keep = nullptr) {
   using namespace viscous_detail;
   const ConstStateView<T> cs = as_const(s);
   const bool delta = stiff_h == T(0);  // delta form (see below) for all but stiff rods
@@ -240,15 +260,6 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
       voronoi_maps<kT>(k, stiff_h, m, cs, w, c1, c2);
       add_xtwy(A, 3, 3, c2, w, c2, h);
     }
-    // the contacts' blocks (in the delta form's right-hand side too, below)
-    if (cc) {
-      const int at[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-          A.a[6 * i + j] += cc->k[at[i][j]][k];
-          if (c + 1 < cells) U.a[6 * i + j] += cc->x[at[i][j]][k];
-        }
-    }
     // mass; fixed unknowns (zero inverse mass) become identity rows
     const T minv[6] = {m.node_inv_mass[k], m.node_inv_mass[k], m.node_inv_mass[k],
                        m.elem_inv_inertia[0][k], m.elem_inv_inertia[1][k], m.elem_inv_inertia[2][k]};
@@ -283,8 +294,6 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
     } else {
       for (int i = 0; i < 6; ++i) y[i] = mass[i] * u[i];
     }
-    if (cc)
-      for (int i = 0; i < 3; ++i) y[i] += cc->r[i][k];
     for (int i = 0; i < 6; ++i) A.a[7 * i] += mass[i];
     // elimination: Â_c = A_c − U_{c−1}ᵀ G_{c−1},  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1}
     for (int i = 0; i < 6; ++i) {
@@ -314,6 +323,14 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
           for (int i = 0; i < 6; ++i) U.a[6 * i + j] = T(0);
     }
     cholesky6(A);
+    if (keep) {
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j <= i; ++j) keep[kKeepL + lt(i, j)][c] = i == j ? T(1) / A.a[7 * i] : A.a[6 * i + j];
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j)
+          if (i >= 3 || j < 3) keep[kKeepU + ui(i, j)][c] = U.a[6 * i + j];
+      for (int i = 0; i < 4; ++i) keep[kKeepMinv + i][c] = minv[i < 1 ? 0 : i + 2];
+    }
     cholesky6_solve(A, y);
     T col[6];
     for (int j = 0; j < 6; ++j) {
@@ -345,6 +362,62 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
       s.elem_w[d][k] = delta ? s.elem_w[d][k] + x[3 + d] : x[3 + d];
     }
     for (int i = 0; i < 6; ++i) next[i] = x[i];
+  }
+}
+
+// x ← A⁻¹ x for `cols` right-hand sides at once with a rod's kept factors
+// (FactorView): the elimination on other right-hand sides, in the precision
+// of x (X; the factors' T may be narrower). x holds the rod's cell c's
+// unknown i (v, ω) of column j at x[(6c + i)·cols + j]. Cells before `from`
+// must hold zeros (their forward values stay zero: the solve starts there);
+// the back substitution stops at cell `to` (only cells to … cells−1 of the
+// solution are wanted; those before are left as they are).
+// reads: the factors  writes: x
+template <class T, class X>
+MANYRODS_HD inline void viscous_solve_factored(const FactorView<T>& f, int cells, int from, int to, int cols, X* x) {
+  using namespace viscous_detail;
+  // forward: ŷ_c = y_c − U_{c−1}ᵀ g_{c−1} (fixed unknowns 0), g_c = Â_c⁻¹ ŷ_c
+  for (int c = from; c < cells; ++c) {
+    const int at = f.at(c);
+    X* y = x + std::ptrdiff_t(6 * c) * cols;
+    if (c > from) {
+      const int ap = f.at(c - 1);
+      const X* gp = y - 6 * cols;
+      for (int i = 0; i < 6; ++i)
+        for (int r = u_row0(i); r < 6; ++r) {
+          const X u = X(f.keep[kKeepU + ui(r, i)][ap]);
+          for (int j = 0; j < cols; ++j) y[i * cols + j] -= u * gp[r * cols + j];
+        }
+    }
+    // L Lᵀ z = y (L: the lower triangle, 1/L_ii on its diagonal)
+    for (int i = 0; i < 6; ++i) {
+      const bool fixed = f.keep[kKeepMinv + (i < 3 ? 0 : i - 2)][at] == T(0);
+      const X id = X(f.keep[kKeepL + lt(i, i)][at]);
+      for (int j = 0; j < cols; ++j) {
+        X v = fixed ? X(0) : y[i * cols + j];
+        for (int r = 0; r < i; ++r) v -= X(f.keep[kKeepL + lt(i, r)][at]) * y[r * cols + j];
+        y[i * cols + j] = v * id;
+      }
+    }
+    for (int i = 5; i >= 0; --i) {
+      const X id = X(f.keep[kKeepL + lt(i, i)][at]);
+      for (int j = 0; j < cols; ++j) {
+        X v = y[i * cols + j];
+        for (int r = i + 1; r < 6; ++r) v -= X(f.keep[kKeepL + lt(r, i)][at]) * y[r * cols + j];
+        y[i * cols + j] = v * id;
+      }
+    }
+  }
+  // back: u_c = g_c − G_c u_{c+1}
+  for (int c = cells - 2; c >= to; --c) {
+    const int at = f.at(c);
+    X* u = x + std::ptrdiff_t(6 * c) * cols;
+    const X* un = u + 6 * cols;
+    for (int i = 0; i < 6; ++i)
+      for (int k = 0; k < 6; ++k) {
+        const X g = X(f.G[6 * i + k][at]);
+        for (int j = 0; j < cols; ++j) u[i * cols + j] -= g * un[k * cols + j];
+      }
   }
 }
 

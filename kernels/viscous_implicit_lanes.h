@@ -86,14 +86,10 @@ namespace manyrods {
 
 namespace lanes_detail {
 
-// Lower triangle of a symmetric 6×6, row by row: (i, j), j ≤ i.
-MANYRODS_HD constexpr int lt(int i, int j) { return i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i; }
-// U's 27 stored entries: (i, j) unless i < 3 ≤ j (the zero block v_c–ω_{c+1}).
-MANYRODS_HD constexpr int ui(int i, int j) {
-  return i < 3 ? 3 * i + j : (j < 3 ? 9 + 3 * (i - 3) + j : 18 + 3 * (i - 3) + j - 3);
-}
-// First row of U's column j that is not structurally zero.
-MANYRODS_HD constexpr int u_row0(int j) { return j >= 3 ? 3 : 0; }
+// the packed indices of viscous_implicit.h (lower triangle, U's entries)
+using viscous_detail::lt;
+using viscous_detail::u_row0;
+using viscous_detail::ui;
 
 // One cell's system for W lanes.
 template <class T, int W>
@@ -410,9 +406,11 @@ MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell
 //   Â = A − U_{c−1}ᵀ G_{c−1},  ŷ = y − U_{c−1}ᵀ g_{c−1}  (c > 0),
 // fixed unknowns → identity rows, Â = L Lᵀ, g_c = Â⁻¹ŷ, G_c = Â⁻¹U_c (not for
 // the last cell), stored in the scratch.
-template <bool kFirst, bool kLast, int W, class T>
+// kKeep: the factors also kept for more right-hand sides (kernels/
+// viscous_implicit.h FactorView: Â_c's factor, U_c, the inverse masses).
+template <bool kFirst, bool kLast, int W, class T, bool kKeep = false>
 MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cell<T, W>& cur,
-                                       const ImplicitScratchView<T>& sc) {
+                                       const ImplicitScratchView<T>& sc, T* const* keep = nullptr) {
   T A[21], y[6];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 21; ++i) A[i] = cur.A[i][l];
@@ -423,6 +421,14 @@ MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cel
   factor_lane(A);
   solve_lane(A, y);
   const int at = c * W + l;
+  if constexpr (kKeep) {
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 21; ++i) keep[kKeepL + i][at] = A[i];
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 27; ++i) keep[kKeepU + i][at] = kLast ? T(0) : cur.U[i][l];
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 4; ++i) keep[kKeepMinv + i][at] = cur.minv[i][l];
+  }
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) sc.g[i][at] = y[i];
   if constexpr (!kLast) solve_u_lane(l, at, A, cur, sc);
@@ -543,10 +549,14 @@ MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView
 // builds up to a different motion within a second. In double only the
 // packing reads floats and the unpacking rounds u⁺ to float once
 // (bench/RESULTS.md "Float stiff rods").
-template <Terms kT, int W, class T, class Tc>
+//
+// kKeep: the factors are also kept in `keep` (kKeepValues arrays of W·n
+// values, the layout of FactorView in kernels/viscous_implicit.h) for more
+// right-hand sides (the contacts of kernels/contact_solve.h).
+template <Terms kT, int W, bool kKeep = false, class T, class Tc>
 MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cells, T h, const T* stiff_h,
                                                const ModelView<T>& m, const StateView<T>& s,
-                                               const ImplicitScratchView<Tc>& sc) {
+                                               const ImplicitScratchView<Tc>& sc, Tc* const* keep = nullptr) {
   using namespace lanes_detail;
   // Local copies of the views: no store in the lane loops can alias them, so
   // their pointers stay in registers (as in host/core/step/launch.h).
@@ -601,16 +611,16 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
     }
     if (c == 0 && c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<true, false>(l, c, prev, cur, scv);
+      for (int l = 0; l < W; ++l) eliminate_lane<true, false, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
     } else if (c == 0) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<true, true>(l, c, prev, cur, scv);
+      for (int l = 0; l < W; ++l) eliminate_lane<true, true, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
     } else if (c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<false, false>(l, c, prev, cur, scv);
+      for (int l = 0; l < W; ++l) eliminate_lane<false, false, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
     } else {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<false, true>(l, c, prev, cur, scv);
+      for (int l = 0; l < W; ++l) eliminate_lane<false, true, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
     }
   }
   // 2. back substitution, then u⁺ out to the rods (their own cells only)

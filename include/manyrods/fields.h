@@ -101,9 +101,6 @@
   X(T, elem_w_start, w_start, 3, 0, "[3][slots] rad/s: element k's angular velocity (material) at the step's start") \
   X(T, node_v_solve, v_solve, 3, 0, "[3][slots] m/s: node k's velocity before the implicit solve (kernels/contact_solve.h)") \
   X(T, elem_w_solve, w_solve, 3, 0, "[3][slots] rad/s: element k's angular velocity before the implicit solve") \
-  X(T, node_ck, ck, 6, 0, "[6][slots] kg: node k's contact block in the implicit solve (xx xy xz yy yz zz; 0 outside it)") \
-  X(T, node_cr, cr, 3, 0, "[3][slots] N·s: node k's contact impulse on the solve's right-hand side (0 outside it)") \
-  X(T, elem_cx, cx, 6, 0, "[6][slots] kg: element k's contact block between its nodes k and k+1 in the solve (symmetric)") \
   X(int, neighbour_count, neighbour_count, 1, 0, "[slots] the element's rod–rod candidates")
 #define MANYRODS_CONTACT_OWN_FIELDS(X)                                                                          \
   X(T, node_x_ref, 3, 0, "[3][slots] m: node positions at the last rebuild of the candidate lists")             \

@@ -5,15 +5,18 @@
 //   contact_solve_save    the velocities before the solve (u⁻), per slot
 //   contact_solve_stage   after the solve: each rod the solve steps finds
 //                         its collider contacts at the solve's geometry and,
-//                         if one acts, is solved again from u⁻ with them in
-//                         its system until their states settle
+//                         if one acts, is solved again from u⁻ keeping its
+//                         factors, its contacts' impulses are solved with
+//                         its Delassus operator and it takes them through
+//                         the factors
 //
 // A rod no collider reaches pays one pass over its elements. A rod with a
 // reference hold (a driven root) is solved relative to the hold's rigid
-// motion, as the solve does (host/core/step/implicit_solve.h shift_hold):
-// the colliders' velocities are taken into that frame. Each rod is solved
-// on its own, by the scalar kernel, in a fixed order of its contacts: the
-// result does not depend on the thread count.
+// motion, as the solve does (host/core/step/implicit_solve.h shift_hold);
+// the contacts' response leaves that motion alone, so they are solved in
+// the lab frame. Each rod is solved on its own, by the scalar kernel, in a
+// fixed order of its contacts: the result does not depend on the thread
+// count.
 #pragma once
 
 #include <omp.h>
@@ -43,8 +46,8 @@ void contact_solve_save(RodBatch<T>& b, const Exec& ex, const Segment& r) {
 namespace detail {
 
 // Rod `ri`'s collider contacts in range at the solve's geometry, into
-// buf.contacts (kernels/contact_solve.h), their initial states from the
-// velocities the first solve gave. Returns whether one acts.
+// buf.contacts (kernels/contact_solve.h). Returns whether one acts on its
+// own at the velocities the first solve gave (if none does, none acts).
 template <class T>
 bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf) {
   using namespace contact_detail;
@@ -83,87 +86,178 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
       }
     }
   }
+  // the contacts' masses (kernels/contact.h element_side); a contact
+  // between two held nodes is none
+  std::size_t kept = 0;
   bool any = false;
+  const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
   for (SolveContact<T>& c : buf.contacts) {
-    // the contact's mass (kernels/contact.h element_side)
     const T w = contact_compliance(c.s, m.node_inv_mass[c.k], m.node_inv_mass[c.k + 1],
                                    buf.weight[std::size_t(c.k - first)], buf.weight[std::size_t(c.k + 1 - first)]);
-    if (!(w > T(0))) continue;  // both nodes held
+    if (!(w > T(0))) continue;
     c.a = T(1) / w;
-    solve_contact_update(c, point_velocity(c, st.node_v), h, cv.hardness, cv.damping_ratio);
-    any = any || c.mode != ContactMode::off;
+    // acting on its own at the free solve's velocities ((S1): λ > 0)
+    const T vn = dot(c.n, point_velocity(c, st.node_v) - c.vp);
+    any = any || c.gap + h * (b_law / (cv.hardness * cv.hardness)) * vn < T(0);
+    buf.contacts[kept++] = c;
   }
+  buf.contacts.resize(kept);
   return any;
 }
 
-// Rod ri solved again from u⁻ with its contacts (find_solve_contacts)
-// until their states settle; their impulses' work into contact.work.
-template <Terms kKernel, class T>
-void solve_rod_with_contacts(RodBatch<T>& b, int ri, int hold, T h, const ContactView<T>& cv,
-                             ContactSolveBuffer<T>& buf, const ImplicitScratchView<T>& sc) {
-  const ModelView<T> m = b.model_view();
+// Rod ri's contacts (buf.contacts) through its factored system f: their
+// Delassus operator, their impulses by projected block Gauss–Seidel
+// (kernels/contact_solve.h), the rod's response to them from the factors
+// (added to its velocities, the free solve's on entry), their work into
+// contact.work.
+template <class Tf, class T>
+void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf,
+                              const FactorView<Tf>& f) {
   const StateView<T> s = b.state_view();
   const RodInfo& rod = b.rods[std::size_t(ri)];
   const int first = rod.offset + 1, cells = rod.elements + 1;
-  // u⁻ back, in the solve's frame, kept in buf.u
+  // W_ij = J_i A⁻¹ J_jᵀ, block (i, j) at 9 (i nc + j), row-major: contact
+  // j's three columns solved together, back to the first contact's cell
+  std::vector<SolveContact<T>>& cs = buf.contacts;
+  const int nc = int(cs.size());
+  int low = cells;
+  for (const SolveContact<T>& c : cs) low = std::min(low, c.k - first);
+  buf.delassus.assign(std::size_t(9) * std::size_t(nc) * std::size_t(nc), T(0));
+  buf.x.resize(std::size_t(18) * std::size_t(cells));
+  T* const w = buf.delassus.data();
+  double* const x = buf.x.data();
+  auto block = [&](int i, int j) { return w + 9 * (std::ptrdiff_t(i) * nc + j); };
+  for (int j = 0; j < nc; ++j) {
+    std::fill(x + 18 * low, x + 18 * cells, 0.0);
+    const int kj = cs[std::size_t(j)].k - first;
+    for (int d = 0; d < 3; ++d) {
+      x[3 * (6 * kj + d) + d] = double(T(1) - cs[std::size_t(j)].s);
+      x[3 * (6 * (kj + 1) + d) + d] = double(cs[std::size_t(j)].s);
+    }
+    viscous_solve_factored(f, cells, kj, low, 3, x);
+    for (int i = 0; i < nc; ++i) {
+      const SolveContact<T>& c = cs[std::size_t(i)];
+      const double* x0 = x + 18 * (c.k - first);
+      for (int e = 0; e < 9; ++e) block(i, j)[e] = T((1 - double(c.s)) * x0[e] + double(c.s) * x0[18 + e]);
+    }
+  }
+  for (int i = 0; i < nc; ++i)  // symmetric in exact arithmetic
+    for (int j = i; j < nc; ++j)
+      for (int e = 0; e < 3; ++e)
+        for (int d = 0; d < 3; ++d) {
+          const T v = T(0.5) * (block(i, j)[3 * e + d] + block(j, i)[3 * d + e]);
+          block(i, j)[3 * e + d] = block(j, i)[3 * d + e] = v;
+        }
+  auto mat = [&](int i, int j) {
+    mat3<T> r;
+    for (int e = 0; e < 9; ++e) r.m[e] = block(i, j)[e];
+    return r;
+  };
+  // projected block Gauss–Seidel over the contacts, in their order, until
+  // a sweep moves no contact point's velocity by more than the tolerance
+  // of the contacts' velocity scale (the impulses' split between contacts
+  // that a stiff rod joins rigidly may converge far more slowly: it moves
+  // nothing)
+  const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
+  T scale = T(0);
+  for (SolveContact<T>& c : cs) {
+    c.p = vec3<T>{T(0), T(0), T(0)};
+    c.v = point_velocity(c, s.node_v);
+    using std::abs;
+    scale = std::max(scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * abs(c.gap) / (h * b_law));
+  }
+  for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep) {
+    T moved = T(0);
+    for (int i = 0; i < nc; ++i) {
+      SolveContact<T>& c = cs[std::size_t(i)];
+      const mat3<T> wii = mat(i, i);
+      const vec3<T> v0 = c.v;
+      const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
+      const vec3<T> dp = p - c.p;
+      if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
+        for (int j = 0; j < nc; ++j) cs[std::size_t(j)].v = cs[std::size_t(j)].v + mul(mat(j, i), dp);
+      c.p = p;
+      moved = std::max(moved, norm(c.v - v0));
+    }
+    if (!(moved > kContactSweepTolerance<T> * scale)) break;
+  }
+  // the rod's response: u⁺ = u_f + A⁻¹ Σ J_iᵀ p_i
+  std::fill(x, x + 6 * cells, 0.0);
+  for (const SolveContact<T>& c : cs) {
+    const double p3[3] = {double(c.p.x), double(c.p.y), double(c.p.z)};
+    for (int d = 0; d < 3; ++d) {
+      x[6 * (c.k - first) + d] += (1 - double(c.s)) * p3[d];
+      x[6 * (c.k + 1 - first) + d] += double(c.s) * p3[d];
+    }
+  }
+  viscous_solve_factored(f, cells, low, 0, 1, x);
+  for (int c = 0; c < cells; ++c)
+    for (int d = 0; d < 3; ++d) {
+      s.node_v[d][first + c] += T(x[6 * c + d]);
+      s.elem_w[d][first + c] += T(x[6 * c + 3 + d]);
+    }
+  // the work of the impulses, P·(v_n + v_{n+1})/2 at the point
+  for (const SolveContact<T>& c : cs)
+    if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0))
+      cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
+}
+
+// Kept factors' pointers into buf (kKeepValues arrays of n values).
+template <class Tf>
+void keep_pointers(std::vector<Tf>& buf, int n, Tf* (&kp)[kKeepValues]) {
+  buf.resize(std::size_t(kKeepValues) * std::size_t(n));
+  for (int a = 0; a < kKeepValues; ++a) kp[a] = buf.data() + std::size_t(a) * std::size_t(n);
+}
+
+template <class Tf>
+FactorView<Tf> factor_view(Tf* const (&kp)[kKeepValues], const ImplicitScratchView<Tf>& sc, int start) {
+  FactorView<Tf> f;
+  for (int a = 0; a < kKeepValues; ++a) f.keep[a] = kp[a];
+  for (int i = 0; i < 36; ++i) f.G[i] = sc.G[i];
+  f.start = start;
+  return f;
+}
+
+// Rod ri's free solve again from u⁻ (in the solve's frame: `hold`, its
+// reference hold or −1), by the kernel the solve takes for it alone
+// (host/core/step/implicit_solve.h: the scalar one for prescribed
+// velocities, else one lane, in double for a float batch's stiff rod),
+// keeping its factors; then its contacts through them.
+template <Terms kKernel, class T>
+void solve_rod_with_contacts(RodBatch<T>& b, int ri, int hold, T h, const ContactView<T>& cv,
+                             ContactSolveBuffer<T>& buf, int thread, const Exec& ex) {
+  const ModelView<T> m = b.model_view();
+  const StateView<T> s = b.state_view();
+  const RodInfo& rod = b.rods[std::size_t(ri)];
+  int first = rod.offset + 1, cells = rod.elements + 1;
+  const T stiff_h = rod.stiff_implicit ? h : T(0);
   for (int c = 0; c < cells; ++c) {
     store3(s.node_v, first + c, load3(cv.v_solve, first + c));
     store3(s.elem_w, first + c, load3(cv.w_solve, first + c));
   }
-  if (hold >= 0) {
-    shift_hold(b, hold, T(-1));
-    // the collider's velocity relative to the hold's rigid motion at the point
-    for (SolveContact<T>& c : buf.contacts)
-      c.vp = c.vp - (point_velocity(c, cv.v_solve) - point_velocity(c, s.node_v));
+  if (hold >= 0) shift_hold(b, hold, T(-1));
+  if (rod.prescribed) {
+    T* kp[kKeepValues];
+    keep_pointers(buf.keep, cells, kp);
+    const ImplicitScratchView<T> sc = b.implicit_scratch_view(thread, 0);
+    viscous_implicit_rod<kKernel>(first, cells, h, stiff_h, m, s, sc, kp);
+    if (hold >= 0) shift_hold(b, hold, T(1));
+    contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 0));
+  } else if (sizeof(T) < sizeof(double) && rod.stiff_implicit && ex.stiff_solve_in_double) {
+    double* kp[kKeepValues];
+    keep_pointers(buf.keep_wide, cells + 1, kp);
+    const ImplicitScratchView<double> sc = b.wide_implicit_scratch_view(thread);
+    viscous_implicit_lanes<kKernel, 1, true>(&first, &cells, h, &stiff_h, m, s, sc, kp);
+    if (hold >= 0) shift_hold(b, hold, T(1));
+    contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 1));
+  } else {
+    T* kp[kKeepValues];
+    keep_pointers(buf.keep, cells + 1, kp);
+    const ImplicitScratchView<T> sc = b.implicit_scratch_view(thread, 0);
+    viscous_implicit_lanes<kKernel, 1, true>(&first, &cells, h, &stiff_h, m, s, sc, kp);
+    if (hold >= 0) shift_hold(b, hold, T(1));
+    contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 1));
   }
-  buf.u.resize(6 * std::size_t(cells));
-  for (int c = 0; c < cells; ++c)
-    for (int d = 0; d < 3; ++d) {
-      buf.u[6 * std::size_t(c) + std::size_t(d)] = s.node_v[d][first + c];
-      buf.u[6 * std::size_t(c) + 3 + std::size_t(d)] = s.elem_w[d][first + c];
-    }
-  SolveContactView<T> ccv;
-  for (int i = 0; i < 6; ++i) ccv.k[i] = cv.ck[i];
-  for (int i = 0; i < 6; ++i) ccv.x[i] = cv.cx[i];
-  for (int i = 0; i < 3; ++i) ccv.r[i] = cv.cr[i];
-  const T stiff_h = rod.stiff_implicit ? h : T(0);
-  for (int it = 0; it < kMaxContactSolves; ++it) {
-    for (const SolveContact<T>& c : buf.contacts) {
-      T k6[6] = {}, r3[3] = {};
-      solve_contact_terms(c, h, cv.hardness, cv.damping_ratio, k6, r3);
-      const T w0 = T(1) - c.s, w1 = c.s;
-      for (int i = 0; i < 6; ++i) {
-        cv.ck[i][c.k] += w0 * w0 * k6[i];
-        cv.ck[i][c.k + 1] += w1 * w1 * k6[i];
-        cv.cx[i][c.k] += w0 * w1 * k6[i];
-      }
-      for (int i = 0; i < 3; ++i) {
-        cv.cr[i][c.k] += w0 * r3[i];
-        cv.cr[i][c.k + 1] += w1 * r3[i];
-      }
-    }
-    for (int c = 0; c < cells; ++c)
-      for (int d = 0; d < 3; ++d) {
-        s.node_v[d][first + c] = buf.u[6 * std::size_t(c) + std::size_t(d)];
-        s.elem_w[d][first + c] = buf.u[6 * std::size_t(c) + 3 + std::size_t(d)];
-      }
-    viscous_implicit_rod<kKernel>(first, cells, h, stiff_h, m, s, sc, &ccv);
-    for (const SolveContact<T>& c : buf.contacts)  // (the blocks are zero outside this loop)
-      for (int j = c.k; j <= c.k + 1; ++j) {
-        for (int i = 0; i < 6; ++i) cv.ck[i][j] = cv.cx[i][j] = T(0);
-        for (int i = 0; i < 3; ++i) cv.cr[i][j] = T(0);
-      }
-    bool changed = false;
-    for (SolveContact<T>& c : buf.contacts)
-      if (c.a > T(0))
-        changed = solve_contact_update(c, point_velocity(c, s.node_v), h, cv.hardness, cv.damping_ratio) || changed;
-    if (!changed) break;
-  }
-  if (hold >= 0) shift_hold(b, hold, T(1));
-  // the work of the impulses of the last solve, P·(v_n + v_{n+1})/2 at the point
-  for (const SolveContact<T>& c : buf.contacts)
-    if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0))
-      cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
 }
 
 }  // namespace detail
@@ -194,7 +288,7 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
     int hold = -1;
     for (int i = r.driven_begin; i < r.driven_end; ++i)
       if (b.driven[std::size_t(i)].rod == ri && b.driven[std::size_t(i)].reference) hold = i;
-    detail::solve_rod_with_contacts<kKernel>(b, ri, hold, h, cv, buf, b.implicit_scratch_view(t, 0));
+    detail::solve_rod_with_contacts<kKernel>(b, ri, hold, h, cv, buf, t, ex);
   };
   if (ex.threads > 1 && r.rod_end - r.rod_begin > 1) {
     const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)

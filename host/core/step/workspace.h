@@ -34,12 +34,15 @@ struct SolveGroup {
 };
 
 // One thread's buffers of the contact solve (host/core/step/contact_solve.h):
-// a rod's collider contacts, its velocities before the solve (6 × cells) and
-// its nodes' contact weights (cells).
+// a rod's collider contacts, its nodes' contact weights (cells), the factors
+// of its system (kernels/viscous_implicit.h FactorView, kKeepValues × cells;
+// keep_wide: a float batch's stiff rod, solved in double), its Delassus
+// operator (9 × contacts²) and three right-hand sides (18 × cells).
 template <class T>
 struct ContactSolveBuffer {
   std::vector<SolveContact<T>> contacts;
-  std::vector<T> u, weight;
+  std::vector<T> weight, keep, delassus;
+  std::vector<double> keep_wide, x;
 };
 
 // Which rods the implicit solve visits, grouped once when the batch is built.
