@@ -73,6 +73,7 @@ struct SolveContact {
   T mu[4] = {0, 0, -1, -1};    // static, kinetic, static axial, kinetic axial (kernels/contact.h pair_mu)
   vec3<T> p{0, 0, 0};          // N·s: its impulse
   vec3<T> v{0, 0, 0};          // m/s: its point's velocity with every impulse so far
+  bool in = false;             // in the solve (its Delassus column is known)
 };
 
 namespace contact_solve_detail {

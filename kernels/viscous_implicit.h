@@ -365,7 +365,7 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
   }
 }
 
-// x ← A⁻¹ x for `cols` right-hand sides at once with a rod's kept factors
+// x ← A⁻¹ x for `cols` right-hand sides at once (a compile-time count) with a rod's kept factors
 // (FactorView): the elimination on other right-hand sides, in the precision
 // of x (X; the factors' T may be narrower). x holds the rod's cell c's
 // unknown i (v, ω) of column j at x[(6c + i)·cols + j]. Cells before `from`
@@ -373,8 +373,8 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
 // the back substitution stops at cell `to` (only cells to … cells−1 of the
 // solution are wanted; those before are left as they are).
 // reads: the factors  writes: x
-template <class T, class X>
-MANYRODS_HD inline void viscous_solve_factored(const FactorView<T>& f, int cells, int from, int to, int cols, X* x) {
+template <int cols, class T, class X>
+MANYRODS_HD inline void viscous_solve_factored(const FactorView<T>& f, int cells, int from, int to, X* x) {
   using namespace viscous_detail;
   // forward: ŷ_c = y_c − U_{c−1}ᵀ g_{c−1} (fixed unknowns 0), g_c = Â_c⁻¹ ŷ_c
   for (int c = from; c < cells; ++c) {

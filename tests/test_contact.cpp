@@ -37,9 +37,10 @@ RodSpec lying_rod(const Vec3& start, const Vec3& dir, int n = 10, double length 
   return s;
 }
 
-double rod_mass(const RodBatch<double>& b, int rod) {
+template <class T>
+double rod_mass(const RodBatch<T>& b, int rod) {
   double m = 0;
-  for (int i = 0; i <= b.elements(rod); ++i) m += b.model.node_mass[b.node_index(rod, i)];
+  for (int i = 0; i <= b.elements(rod); ++i) m += double(b.model.node_mass[b.node_index(rod, i)]);
   return m;
 }
 Vec3 momentum(const RodBatch<double>& b, int rod) {
@@ -504,7 +505,8 @@ TEST(Contact, StiffHairAtFrameRateStepOnAHead) {
 // step never rises above where it started beyond the integrator's error,
 // whatever it hits: nothing drives it, and the solve and the contact law
 // only take energy. Sampled every step; returns the highest rise.
-double highest_energy_rise(RodBatch<double>& b, double h, int steps) {
+template <class T>
+double highest_energy_rise(RodBatch<T>& b, T h, int steps) {
   auto mech = [&] {
     const Energies e = energies<kColliders>(b);
     return e.kinetic + e.elastic + e.potential;
@@ -561,6 +563,46 @@ TEST(Contact, AStiffHairSwungOntoAHeadOrDroppedOnAFloorNeverGainsEnergy) {
   // Dropped flat: the impulses are uniform, nothing bends, and K + E + U
   // falls through the impact (round-off: 1e-9 of K0).
   EXPECT_LE(dropped, 1e-9);
+}
+
+// Eight of those hairs side by side in a float batch: their stiff solve
+// and its contacts run in double (a lane group of 8), the state in float.
+// The same bounds as in double: no energy beyond the fall's scale (double
+// gives 0.48 of it; float's rounding of K + E + U is ~1e-7 of m g z, far
+// below), and the contacts keep every hair outside the head (the law's
+// resting overlap is ~1e-6 m; 4 µm = 0.1 r).
+TEST(Contact, StiffHairsInAFloatBatchMeetAHeadInTheirDoubleSolve) {
+  std::vector<RodSpec> hairs;
+  for (int i = 0; i < 8; ++i) {
+    RodSpec hair = cases::hair(32, true, Damping::shear_extension(1e-3, 1e-3));
+    for (Vec3& x : hair.nodes) x[1] += 0.002 * i;
+    hairs.push_back(hair);
+  }
+  RodBatch<float> b = build_batch<float>(hairs, {0, 0, -kG});
+  Collider head;
+  head.kind = ColliderKind::sphere;
+  head.center = {0.1, 0.007, -0.1};
+  head.radius = 0.097;
+  head.friction = {0.4, 0.3};
+  ContactSpec spec;
+  spec.colliders = {head};
+  set_contact(b, spec);
+  double fall = 0;
+  for (int r = 0; r < 8; ++r) fall += rod_mass(b, r) * kG * 0.1;
+  const float h = 3e-4f;
+  const double rise = highest_energy_rise(b, h, int(0.3 / h)) / fall;
+  double deepest = 0;
+  int touching = 0;
+  for (int i = 0; i < 20; ++i) {
+    advance<kColliders>(b, h, 100);
+    deepest = std::max(deepest, double(contact_stats(b).max_penetration));
+    touching += contact_stats(b).contacts;
+  }
+  std::printf("float batch of 8 stiff hairs onto a head: rise %.3g of m g × 0.1 m, deepest overlap %.3g m\n", rise,
+              deepest);
+  EXPECT_GT(touching, 0);
+  EXPECT_LT(rise, 1.0);
+  EXPECT_LT(deepest, 4e-6);
 }
 
 // The seed cantilever bending sideways under gravity onto a wall, at 0.9 ×

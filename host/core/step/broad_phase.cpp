@@ -71,12 +71,19 @@ bool wide(const ContactData<T>& c, const Reaches& re, int k) {
   return double(c.elem_skin[k]) > re.s_thr;
 }
 
+// The margin of a moving element, in steps of its own motion: a list
+// rebuilt every few steps costs more than the longer lists of the fast
+// elements (the 1,000-hair groom with hair–hair contact: 2 steps rebuilt
+// 0.85 times a step, 8 steps 0.29 times, the step 1.3× faster;
+// bench/RESULTS.md).
+constexpr double kMarginSteps = 8;
+
 // Sets each element's reach s_k (ContactData::elem_skin) and returns the
 // build's Reaches; none when the batch has no element.
 //
 // Each element's reach s_k: its contact range now plus a margin for the
 // motion until the next build (ContactSpec::skin, by default half its
-// radius, and at least 2 h (1 + 2ζ/Ω) v_k, some two steps of its motion:
+// radius, and at least kMarginSteps h (1 + 2ζ/Ω) v_k, eight steps of its motion:
 // one element's speed widens its own list, not everyone's). Pairs with
 // gap < s_a + s_b are kept (at rest: 2 r for equal radii).
 template <class T>
@@ -86,7 +93,7 @@ std::optional<Reaches> set_skins(ContactData<T>& c, const ConstStateView<T>& s, 
   for (int k = 0; k < n; ++k) {
     if (c.elem_rod[k] < 0) continue;
     const double v = double(contact_detail::max_speed(s, k)), r = double(c.elem_radius[k]);
-    const double margin = std::max(c.spec.skin > 0 ? c.spec.skin : 0.5 * r, 2 * reach * v);
+    const double margin = std::max(c.spec.skin > 0 ? c.spec.skin : 0.5 * r, kMarginSteps * reach * v);
     c.elem_skin[k] = T(contact_need(c, s, k, reach) + margin);
     reach_of.push_back(double(c.elem_skin[k]));
     lmax = std::max(lmax, double(norm(load3(s.node_x, k + 1) - load3(s.node_x, k))));

@@ -117,69 +117,91 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
   const RodInfo& rod = b.rods[std::size_t(ri)];
   const int first = rod.offset + 1, cells = rod.elements + 1;
   // W_ij = J_i A⁻¹ J_jᵀ, block (i, j) at 9 (i nc + j), row-major: contact
-  // j's three columns solved together, back to the first contact's cell
+  // j's three columns solved together, back to the first contact's cell,
+  // for the contacts in the solve (in: those that act on their own at the
+  // free velocities, then any the others' impulses make act), every row
   std::vector<SolveContact<T>>& cs = buf.contacts;
   const int nc = int(cs.size());
   int low = cells;
   for (const SolveContact<T>& c : cs) low = std::min(low, c.k - first);
-  buf.delassus.assign(std::size_t(9) * std::size_t(nc) * std::size_t(nc), T(0));
+  buf.delassus.resize(std::size_t(9) * std::size_t(nc) * std::size_t(nc));
   buf.x.resize(std::size_t(18) * std::size_t(cells));
   T* const w = buf.delassus.data();
   double* const x = buf.x.data();
   auto block = [&](int i, int j) { return w + 9 * (std::ptrdiff_t(i) * nc + j); };
-  for (int j = 0; j < nc; ++j) {
+  auto column = [&](int j) {
     std::fill(x + 18 * low, x + 18 * cells, 0.0);
     const int kj = cs[std::size_t(j)].k - first;
     for (int d = 0; d < 3; ++d) {
       x[3 * (6 * kj + d) + d] = double(T(1) - cs[std::size_t(j)].s);
       x[3 * (6 * (kj + 1) + d) + d] = double(cs[std::size_t(j)].s);
     }
-    viscous_solve_factored(f, cells, kj, low, 3, x);
+    viscous_solve_factored<3>(f, cells, kj, low, x);
     for (int i = 0; i < nc; ++i) {
       const SolveContact<T>& c = cs[std::size_t(i)];
       const double* x0 = x + 18 * (c.k - first);
       for (int e = 0; e < 9; ++e) block(i, j)[e] = T((1 - double(c.s)) * x0[e] + double(c.s) * x0[18 + e]);
     }
-  }
-  for (int i = 0; i < nc; ++i)  // symmetric in exact arithmetic
-    for (int j = i; j < nc; ++j)
-      for (int e = 0; e < 3; ++e)
-        for (int d = 0; d < 3; ++d) {
-          const T v = T(0.5) * (block(i, j)[3 * e + d] + block(j, i)[3 * d + e]);
-          block(i, j)[3 * e + d] = block(j, i)[3 * d + e] = v;
-        }
+    cs[std::size_t(j)].in = true;
+    for (int i = 0; i < nc; ++i)  // symmetric in exact arithmetic
+      if (cs[std::size_t(i)].in)
+        for (int e = 0; e < 3; ++e)
+          for (int d = 0; d < 3; ++d) {
+            const T v = T(0.5) * (block(i, j)[3 * e + d] + block(j, i)[3 * d + e]);
+            block(i, j)[3 * e + d] = block(j, i)[3 * d + e] = v;
+          }
+  };
   auto mat = [&](int i, int j) {
     mat3<T> r;
     for (int e = 0; e < 9; ++e) r.m[e] = block(i, j)[e];
     return r;
   };
-  // projected block Gauss–Seidel over the contacts, in their order, until
-  // a sweep moves no contact point's velocity by more than the tolerance
-  // of the contacts' velocity scale (the impulses' split between contacts
-  // that a stiff rod joins rigidly may converge far more slowly: it moves
-  // nothing)
   const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
+  auto acts = [&](const SolveContact<T>& c) {  // (S1): λ > 0 with no impulse of its own
+    return c.gap + h * (b_law / (cv.hardness * cv.hardness)) * dot(c.n, c.v - c.vp) < T(0);
+  };
   T scale = T(0);
   for (SolveContact<T>& c : cs) {
     c.p = vec3<T>{T(0), T(0), T(0)};
     c.v = point_velocity(c, s.node_v);
+    c.in = false;
     using std::abs;
     scale = std::max(scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * abs(c.gap) / (h * b_law));
   }
-  for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep) {
-    T moved = T(0);
-    for (int i = 0; i < nc; ++i) {
-      SolveContact<T>& c = cs[std::size_t(i)];
-      const mat3<T> wii = mat(i, i);
-      const vec3<T> v0 = c.v;
-      const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
-      const vec3<T> dp = p - c.p;
-      if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
-        for (int j = 0; j < nc; ++j) cs[std::size_t(j)].v = cs[std::size_t(j)].v + mul(mat(j, i), dp);
-      c.p = p;
-      moved = std::max(moved, norm(c.v - v0));
+  bool added = false;
+  for (int j = 0; j < nc; ++j)
+    if (acts(cs[std::size_t(j)])) {
+      column(j);
+      added = true;
     }
-    if (!(moved > kContactSweepTolerance<T> * scale)) break;
+  // projected block Gauss–Seidel over the contacts in the solve, in their
+  // order, until a sweep moves no contact point's velocity by more than the
+  // tolerance of the contacts' velocity scale (the impulses' split between
+  // contacts that a stiff rod joins rigidly may converge far more slowly:
+  // it moves nothing); then any contact that the impulses make act joins
+  while (added) {
+    for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep) {
+      T moved = T(0);
+      for (int i = 0; i < nc; ++i) {
+        SolveContact<T>& c = cs[std::size_t(i)];
+        if (!c.in) continue;
+        const mat3<T> wii = mat(i, i);
+        const vec3<T> v0 = c.v;
+        const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
+        const vec3<T> dp = p - c.p;
+        if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
+          for (int j = 0; j < nc; ++j) cs[std::size_t(j)].v = cs[std::size_t(j)].v + mul(mat(j, i), dp);
+        c.p = p;
+        moved = std::max(moved, norm(c.v - v0));
+      }
+      if (!(moved > kContactSweepTolerance<T> * scale)) break;
+    }
+    added = false;
+    for (int j = 0; j < nc; ++j)
+      if (!cs[std::size_t(j)].in && acts(cs[std::size_t(j)])) {
+        column(j);
+        added = true;
+      }
   }
   // the rod's response: u⁺ = u_f + A⁻¹ Σ J_iᵀ p_i
   std::fill(x, x + 6 * cells, 0.0);
@@ -190,7 +212,7 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
       x[6 * (c.k + 1 - first) + d] += double(c.s) * p3[d];
     }
   }
-  viscous_solve_factored(f, cells, low, 0, 1, x);
+  viscous_solve_factored<1>(f, cells, low, 0, x);
   for (int c = 0; c < cells; ++c)
     for (int d = 0; d < 3; ++d) {
       s.node_v[d][first + c] += T(x[6 * c + d]);
@@ -209,67 +231,107 @@ void keep_pointers(std::vector<Tf>& buf, int n, Tf* (&kp)[kKeepValues]) {
   for (int a = 0; a < kKeepValues; ++a) kp[a] = buf.data() + std::size_t(a) * std::size_t(n);
 }
 
+// Lane `lane` of a group of W lanes, its rod's cell c the group's cell start + c.
 template <class Tf>
-FactorView<Tf> factor_view(Tf* const (&kp)[kKeepValues], const ImplicitScratchView<Tf>& sc, int start) {
+FactorView<Tf> factor_view(Tf* const (&kp)[kKeepValues], const ImplicitScratchView<Tf>& sc, int W, int lane,
+                           int start) {
   FactorView<Tf> f;
   for (int a = 0; a < kKeepValues; ++a) f.keep[a] = kp[a];
   for (int i = 0; i < 36; ++i) f.G[i] = sc.G[i];
+  f.W = W;
+  f.lane = lane;
   f.start = start;
   return f;
 }
 
-// Rod ri's free solve again from u⁻ (in the solve's frame: `hold`, its
-// reference hold or −1), by the kernel the solve takes for it alone
-// (host/core/step/implicit_solve.h: the scalar one for prescribed
-// velocities, else one lane, in double for a float batch's stiff rod),
-// keeping its factors; then its contacts through them.
-template <Terms kKernel, class T>
-void solve_rod_with_contacts(RodBatch<T>& b, int ri, int hold, T h, const ContactView<T>& cv,
-                             ContactSolveBuffer<T>& buf, int thread, const Exec& ex) {
-  const ModelView<T> m = b.model_view();
+// Rod ri's reference hold in segment r (its driven root), or −1.
+template <class T>
+int reference_hold(const RodBatch<T>& b, const Segment& r, int ri) {
+  int hold = -1;
+  for (int i = r.driven_begin; i < r.driven_end; ++i)
+    if (b.driven[std::size_t(i)].rod == ri && b.driven[std::size_t(i)].reference) hold = i;
+  return hold;
+}
+
+// u⁻ back into rod ri, in the solve's frame (sign −1), or its hold's rigid
+// motion added back (sign +1) (host/core/step/implicit_solve.h shift_hold).
+template <class T>
+void restore_pre_solve(RodBatch<T>& b, int ri, const ContactView<T>& cv) {
   const StateView<T> s = b.state_view();
   const RodInfo& rod = b.rods[std::size_t(ri)];
-  int first = rod.offset + 1, cells = rod.elements + 1;
-  const T stiff_h = rod.stiff_implicit ? h : T(0);
-  for (int c = 0; c < cells; ++c) {
-    store3(s.node_v, first + c, load3(cv.v_solve, first + c));
-    store3(s.elem_w, first + c, load3(cv.w_solve, first + c));
+  for (int c = 0; c <= rod.elements; ++c) {
+    store3(s.node_v, rod.offset + 1 + c, load3(cv.v_solve, rod.offset + 1 + c));
+    store3(s.elem_w, rod.offset + 1 + c, load3(cv.w_solve, rod.offset + 1 + c));
   }
+}
+
+// Rods rods[0 … count) (count ≤ W, each with a collider contact that acts)
+// solved again from u⁻ as one lane group of W lanes in Tc (kernels/
+// viscous_implicit_lanes.h, as the solve does, its factors kept), then each
+// rod's contacts through its lane's factors.
+template <Terms kKernel, int W, class Tc, class T>
+void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
+                               ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
+                               const Segment& r) {
+  const ModelView<T> m = b.model_view();
+  const StateView<T> s = b.state_view();
+  int first[W], cells[W], n = 0;
+  T stiff_h[W];
+  for (int j = 0; j < W; ++j) {  // a group short of W fills up with its last rod
+    const RodInfo& rod = b.rods[std::size_t(rods[j < count ? j : count - 1])];
+    first[j] = rod.offset + 1;
+    cells[j] = rod.elements + 1;
+    stiff_h[j] = rod.stiff_implicit ? h : T(0);
+    n = std::max(n, cells[j]);
+  }
+  n += 1;  // the root ghost cell (see viscous_implicit_lanes)
+  for (int j = 0; j < count; ++j) {
+    restore_pre_solve(b, rods[j], cv);
+    if (const int hold = reference_hold(b, r, rods[j]); hold >= 0) shift_hold(b, hold, T(-1));
+  }
+  Tc* kp[kKeepValues];
+  keep_pointers(keep, W * n, kp);
+  viscous_implicit_lanes<kKernel, W, true>(first, cells, h, stiff_h, m, s, sc, kp);
+  for (int j = 0; j < count; ++j)
+    if (const int hold = reference_hold(b, r, rods[j]); hold >= 0) shift_hold(b, hold, T(1));
+  for (int j = 0; j < count; ++j)
+    if (find_solve_contacts(b, rods[j], h, cv, buf))
+      contacts_through_factors(b, rods[j], h, cv, buf, factor_view(kp, sc, W, j, n - cells[j]));
+}
+
+// Rod ri with prescribed velocities (the scalar kernel, as the solve takes
+// it: its delta form), solved again from u⁻ with its factors kept, then
+// its contacts through them.
+template <Terms kKernel, class T>
+void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf,
+                                    const ImplicitScratchView<T>& sc, const Segment& r) {
+  const RodInfo& rod = b.rods[std::size_t(ri)];
+  const int hold = reference_hold(b, r, ri);
+  restore_pre_solve(b, ri, cv);
   if (hold >= 0) shift_hold(b, hold, T(-1));
-  if (rod.prescribed) {
-    T* kp[kKeepValues];
-    keep_pointers(buf.keep, cells, kp);
-    const ImplicitScratchView<T> sc = b.implicit_scratch_view(thread, 0);
-    viscous_implicit_rod<kKernel>(first, cells, h, stiff_h, m, s, sc, kp);
-    if (hold >= 0) shift_hold(b, hold, T(1));
-    contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 0));
-  } else if (sizeof(T) < sizeof(double) && rod.stiff_implicit && ex.stiff_solve_in_double) {
-    double* kp[kKeepValues];
-    keep_pointers(buf.keep_wide, cells + 1, kp);
-    const ImplicitScratchView<double> sc = b.wide_implicit_scratch_view(thread);
-    viscous_implicit_lanes<kKernel, 1, true>(&first, &cells, h, &stiff_h, m, s, sc, kp);
-    if (hold >= 0) shift_hold(b, hold, T(1));
-    contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 1));
-  } else {
-    T* kp[kKeepValues];
-    keep_pointers(buf.keep, cells + 1, kp);
-    const ImplicitScratchView<T> sc = b.implicit_scratch_view(thread, 0);
-    viscous_implicit_lanes<kKernel, 1, true>(&first, &cells, h, &stiff_h, m, s, sc, kp);
-    if (hold >= 0) shift_hold(b, hold, T(1));
-    contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 1));
-  }
+  T* kp[kKeepValues];
+  keep_pointers(buf.keep, rod.elements + 1, kp);
+  viscous_implicit_rod<kKernel>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), b.model_view(),
+                                b.state_view(), sc, kp);
+  if (hold >= 0) shift_hold(b, hold, T(1));
+  if (find_solve_contacts(b, ri, h, cv, buf)) contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 1, 0, 0));
 }
 
 }  // namespace detail
 
 // The stage on the rods of segment r that the solve steps (kSolve: the
-// solve's Terms), after the solve.
+// solve's Terms), after the solve: which rods have a collider contact that
+// acts (a pass over the rods), then those rods again in lane groups of the
+// solve's width (in double for a float batch's stiff rods, one by one with
+// prescribed velocities), each group's rods in their order: the result does
+// not depend on the thread count.
 // reads: model, state, contact data, colliders  writes: state.node_v, elem_w
 // of the rods with an acting contact, contact.work
 template <Terms kSolve, class T>
 void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r,
                          int thread) {
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
+  constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
   const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt);
   if (cv.collider_count == 0) return;
   // one buffer per thread, reserved by the driver before its parallel
@@ -281,25 +343,74 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
     if (omp_in_parallel()) throw std::logic_error("contact_solve_stage: buffers not reserved before a parallel region");
     bufs.resize(std::size_t(need));
   }
-  auto one = [&](int ri, int t) {
-    if (!cv.colliders_in_solve(ri)) return;
-    ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
-    if (!detail::find_solve_contacts(b, ri, h, cv, buf)) return;
-    int hold = -1;
-    for (int i = r.driven_begin; i < r.driven_end; ++i)
-      if (b.driven[std::size_t(i)].rod == ri && b.driven[std::size_t(i)].reference) hold = i;
-    detail::solve_rod_with_contacts<kKernel>(b, ri, hold, h, cv, buf, t, ex);
+  const bool parallel = ex.threads > 1 && r.rod_end - r.rod_begin > 1;
+  const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
+  // which rods: 1 in a lane group, 2 in a lane group in double (a float
+  // batch's stiff rod), 3 prescribed; 4, 5: as 1, 2 but alone in one lane
+  // (a rod too long for a group in the thread's buffer, as the solve's
+  // partitioned ones)
+  ContactSolveBuffer<T>& own = bufs[std::size_t(thread)];
+  own.kind.assign(std::size_t(r.rod_end - r.rod_begin), 0);
+  const int room = b.workspace->visc_cells;
+  auto which = [&](int ri, int t) {
+    if (!cv.colliders_in_solve(ri) || !detail::find_solve_contacts(b, ri, h, cv, bufs[std::size_t(t)])) return;
+    const RodInfo& rod = b.rods[std::size_t(ri)];
+    const bool wide = sizeof(T) < sizeof(double) && rod.stiff_implicit && ex.stiff_solve_in_double;
+    const bool fits = (wide ? kWide : W) * (rod.elements + 2) <= room;
+    own.kind[std::size_t(ri - r.rod_begin)] = char(rod.prescribed ? 3 : wide ? (fits ? 2 : 5) : (fits ? 1 : 4));
   };
-  if (ex.threads > 1 && r.rod_end - r.rod_begin > 1) {
-    const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
+  if (parallel) {
 #pragma omp parallel num_threads(ex.threads)
     {
       const RegionFpScope fp(mode);
 #pragma omp for schedule(dynamic, 16)
-      for (int ri = r.rod_begin; ri < r.rod_end; ++ri) one(ri, omp_get_thread_num());
+      for (int ri = r.rod_begin; ri < r.rod_end; ++ri) which(ri, omp_get_thread_num());
     }
   } else {
-    for (int ri = r.rod_begin; ri < r.rod_end; ++ri) one(ri, thread);
+    for (int ri = r.rod_begin; ri < r.rod_end; ++ri) which(ri, thread);
+  }
+  // the jobs: {kind, first in own.rods, count}
+  own.rods.clear();
+  own.jobs.clear();
+  for (int kind = 1; kind <= 5; ++kind) {
+    const int width = kind == 1 ? W : kind == 2 ? kWide : 1;
+    for (int ri = r.rod_begin; ri < r.rod_end; ++ri) {
+      if (own.kind[std::size_t(ri - r.rod_begin)] != kind) continue;
+      if (own.jobs.empty() || own.jobs.back()[0] != kind || own.jobs.back()[2] == width)
+        own.jobs.push_back({kind, int(own.rods.size()), 0});
+      own.rods.push_back(ri);
+      ++own.jobs.back()[2];
+    }
+  }
+  auto job = [&](const std::array<int, 3>& jb, int t) {
+    ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
+    const int* rods = own.rods.data() + jb[1];
+    if (jb[0] == 1) {
+      detail::solve_group_with_contacts<kKernel, W>(b, rods, jb[2], h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0),
+                                                    r);
+    } else if (jb[0] == 2) {
+      if constexpr (sizeof(T) < sizeof(double))
+        detail::solve_group_with_contacts<kKernel, kWide>(b, rods, jb[2], h, cv, buf, buf.keep_wide,
+                                                          b.wide_implicit_scratch_view(t), r);
+    } else if (jb[0] == 3) {
+      detail::solve_prescribed_with_contacts<kKernel>(b, rods[0], h, cv, buf, b.implicit_scratch_view(t, 0), r);
+    } else if (jb[0] == 4) {
+      detail::solve_group_with_contacts<kKernel, 1>(b, rods, 1, h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), r);
+    } else if constexpr (sizeof(T) < sizeof(double)) {
+      detail::solve_group_with_contacts<kKernel, 1>(b, rods, 1, h, cv, buf, buf.keep_wide,
+                                                    b.wide_implicit_scratch_view(t), r);
+    }
+  };
+  const int jobs = int(own.jobs.size());
+  if (parallel && jobs > 1) {
+#pragma omp parallel num_threads(ex.threads)
+    {
+      const RegionFpScope fp(mode);
+#pragma omp for schedule(dynamic, 1)
+      for (int i = 0; i < jobs; ++i) job(own.jobs[std::size_t(i)], omp_get_thread_num());
+    }
+  } else {
+    for (int i = 0; i < jobs; ++i) job(own.jobs[std::size_t(i)], thread);
   }
 }
 
