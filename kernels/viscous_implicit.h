@@ -48,7 +48,9 @@
 //
 // reads: model, state geometry and velocities  writes: node_v, elem_w of the
 // rod, and the elimination scratch G (36 per cell) and g (6 per cell), indexed
-// by the rod's cell c = 0 … cells−1 (the host passes a per-thread buffer)
+// by the rod's cell c = 0 … cells−1 (the host passes a per-thread buffer); with
+// `keep`, the factors (FactorView). viscous_solve_factored: reads the kept
+// factors, writes its right-hand sides (the solutions)
 #pragma once
 
 #include <cstddef>

@@ -57,7 +57,8 @@
 // writes: node_v, elem_w of their cells, and the elimination scratch:
 //   G[i][c·W + l] (i < 36, row-major 6×6) and g[i][c·W + l] (i < 6) for the
 //   group's cell c of lane l, c ≤ max(cells): 42·W·(max(cells) + 1) values
-//   (the host passes a per-thread buffer at least that long).
+//   (the host passes a per-thread buffer at least that long); with kKeep,
+//   the factors (kernels/viscous_implicit.h FactorView) into `keep`.
 #pragma once
 
 #include "kernels/viscous_implicit.h"
