@@ -469,6 +469,18 @@ TEST(Contact, CapstanHoldsBelowEulerEytelweinAndSlipsAbove) {
   EXPECT_GT(slipped, 5e-3);
 }
 
+// The head the stiff hair (cases::hair, root at the origin along +x) swings
+// onto: a sphere of radius 0.097 m centred 0.1 m along and `below` under
+// its root, `aside` across, friction 0.4 / 0.3.
+Collider hair_head(double below = 0.1, double aside = 0) {
+  Collider head;
+  head.kind = ColliderKind::sphere;
+  head.center = {0.1, aside, -below};
+  head.radius = 0.097;
+  head.friction = {0.4, 0.3};
+  return head;
+}
+
 // ---- 9g Contact does not shrink the step ----------------------------------------------
 // Stiff hair at a frame-rate step, swinging down onto a head below it: the
 // step the scene takes without contact (3e-4 s, about half the flexural
@@ -478,14 +490,8 @@ TEST(Contact, CapstanHoldsBelowEulerEytelweinAndSlipsAbove) {
 TEST(Contact, StiffHairAtFrameRateStepOnAHead) {
   RodBatch<double> b =
       build_batch<double>({cases::hair(32, true, Damping::shear_extension(1e-3, 1e-3))}, {0, 0, -kG});
-  Collider head;
-  head.kind = ColliderKind::sphere;
-  head.center = {0.1, 0, -0.1};
-  head.radius = 0.097;
-  head.friction = {0.4, 0.3};
-
   ContactSpec spec;
-  spec.colliders = {head};
+  spec.colliders = {hair_head()};
   set_contact(b, spec);
   double deepest = 0;
   std::int64_t touching = 0;
@@ -524,13 +530,8 @@ TEST(Contact, AStiffHairSwungOntoAHeadOrDroppedOnAFloorNeverGainsEnergy) {
   auto swing = [&](bool head_on, double h) {
     RodBatch<double> b =
         build_batch<double>({cases::hair(32, true, Damping::shear_extension(1e-3, 1e-3))}, {0, 0, -kG});
-    Collider head;
-    head.kind = ColliderKind::sphere;
-    head.center = {0.1, 0, head_on ? -0.1 : -10.0};
-    head.radius = 0.097;
-    head.friction = {0.4, 0.3};
     ContactSpec spec;
-    spec.colliders = {head};
+    spec.colliders = {hair_head(head_on ? 0.1 : 10.0)};
     set_contact(b, spec);
     const double fall = rod_mass(b, 0) * kG * 0.1;  // m g × the fall of its middle, a scale
     return highest_energy_rise(b, h, int(0.9 / h)) / fall;
@@ -579,13 +580,8 @@ TEST(Contact, StiffHairsInAFloatBatchMeetAHeadInTheirDoubleSolve) {
     hairs.push_back(hair);
   }
   RodBatch<float> b = build_batch<float>(hairs, {0, 0, -kG});
-  Collider head;
-  head.kind = ColliderKind::sphere;
-  head.center = {0.1, 0.007, -0.1};
-  head.radius = 0.097;
-  head.friction = {0.4, 0.3};
   ContactSpec spec;
-  spec.colliders = {head};
+  spec.colliders = {hair_head(0.1, 0.007)};
   set_contact(b, spec);
   double fall = 0;
   for (int r = 0; r < 8; ++r) fall += rod_mass(b, r) * kG * 0.1;
