@@ -120,18 +120,27 @@ MANYRODS_HD inline vec3<T> kinetic_direction(const SolveContact<T>& c, vec3<T> s
   return (T(-1) / d) * (mka * mka * sa * ea + mkt * mkt * st * et);
 }
 
-// x = E⁻¹ r for a symmetric positive definite 3×3 E (Cholesky).
+// x = E⁻¹ r for a symmetric 3×3 E (Cholesky); false, x untouched, where E
+// is not positive definite (a contact point that cannot slide: on a held
+// node, whose W_ii has no tangential part).
 template <class T>
-MANYRODS_HD inline vec3<T> spd3_solve(const mat3<T>& e, vec3<T> r) {
+MANYRODS_HD inline bool spd3_solve(const mat3<T>& e, vec3<T> r, vec3<T>& x) {
   using std::sqrt;
-  const T l00 = sqrt(e.m[0]);
+  const T d0 = e.m[0];
+  if (!(d0 > T(0))) return false;
+  const T l00 = sqrt(d0);
   const T l10 = e.m[3] / l00, l20 = e.m[6] / l00;
-  const T l11 = sqrt(e.m[4] - l10 * l10);
+  const T d1 = e.m[4] - l10 * l10;
+  if (!(d1 > T(0))) return false;
+  const T l11 = sqrt(d1);
   const T l21 = (e.m[7] - l20 * l10) / l11;
-  const T l22 = sqrt(e.m[8] - l20 * l20 - l21 * l21);
+  const T d2 = e.m[8] - l20 * l20 - l21 * l21;
+  if (!(d2 > T(0))) return false;
+  const T l22 = sqrt(d2);
   const T y0 = r.x / l00, y1 = (r.y - l10 * y0) / l11, y2 = (r.z - l20 * y0 - l21 * y1) / l22;
   const T x2 = y2 / l22, x1 = (y1 - l21 * x2) / l11, x0 = (y0 - l10 * x1 - l20 * x2) / l00;
-  return {x0, x1, x2};
+  x = {x0, x1, x2};
+  return true;
 }
 
 }  // namespace contact_solve_detail
@@ -162,7 +171,8 @@ MANYRODS_HD inline vec3<T> contact_local_impulse(const SolveContact<T>& c, const
   const T n3[3] = {c.n.x, c.n.y, c.n.z};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) e.m[3 * i + j] += ic * n3[i] * n3[j];
-  const vec3<T> ps = spd3_solve(e, (-T(1)) * rel + (rn + dot(c.n, rel)) * c.n);
+  vec3<T> ps;
+  if (!spd3_solve(e, (-T(1)) * rel + (rn + dot(c.n, rel)) * c.n, ps)) return lam0 * c.n;  // cannot slide
   const T ls = dot(c.n, ps);
   const vec3<T> pts = tangential(ps, c.n);
   if (ls > T(0) && in_static_cone(c, pts, ls)) return ps;
