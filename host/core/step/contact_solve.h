@@ -87,10 +87,19 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
     }
   }
   // the contacts' masses (kernels/contact.h element_side); a contact
-  // between two held nodes is none
+  // between two held nodes is none. Two elements' contacts at their shared
+  // node with one law (the same gap, normal, collider velocity and
+  // friction, isotropic) are one contact of their summed mass: their laws
+  // add up to its law exactly, and a pair of identical rows in W would
+  // leave the split between them undetermined (the sweeps crawl).
   std::size_t kept = 0;
   bool any = false;
   const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
+  auto same_law = [](const SolveContact<T>& p, const SolveContact<T>& q) {
+    return p.gap == q.gap && p.n.x == q.n.x && p.n.y == q.n.y && p.n.z == q.n.z && p.vp.x == q.vp.x &&
+           p.vp.y == q.vp.y && p.vp.z == q.vp.z && p.mu[0] == q.mu[0] && p.mu[1] == q.mu[1] && p.mu[2] < T(0) &&
+           q.mu[2] < T(0);
+  };
   for (SolveContact<T>& c : buf.contacts) {
     const T w = contact_compliance(c.s, m.node_inv_mass[c.k], m.node_inv_mass[c.k + 1],
                                    buf.weight[std::size_t(c.k - first)], buf.weight[std::size_t(c.k + 1 - first)]);
@@ -99,7 +108,15 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
     // acting on its own at the free solve's velocities ((S1): λ > 0)
     const T vn = dot(c.n, point_velocity(c, st.node_v) - c.vp);
     any = any || c.gap + h * (b_law / (cv.hardness * cv.hardness)) * vn < T(0);
-    buf.contacts[kept++] = c;
+    bool merged = false;
+    if (c.s == T(0))
+      for (std::size_t i = kept; i-- > 0 && buf.contacts[i].k >= c.k - 1;)
+        if (buf.contacts[i].k == c.k - 1 && buf.contacts[i].s == T(1) && same_law(buf.contacts[i], c)) {
+          buf.contacts[i].a += c.a;
+          merged = true;
+          break;
+        }
+    if (!merged) buf.contacts[kept++] = c;
   }
   buf.contacts.resize(kept);
   return any;
