@@ -307,6 +307,19 @@ MANYRODS_HD inline T collider_range(const ColliderFrame<T>& c, vec3<T> x0, vec3<
   return reach * (va + vb) + T(0.5) * r;
 }
 
+// Each touch of collider c within element x0 → x1's contact range
+// (collider_touches, collider_range), passed to take(touch): the element's
+// contacts with c, for the stage and for the contact solve alike.
+template <class T, class Take>
+MANYRODS_HD inline void touches_in_range(const ColliderFrame<T>& c, vec3<T> x0, vec3<T> x1, T r, T va, T reach,
+                                         Take&& take) {
+  const T delta = collider_range(c, x0, x1, r, va, reach);
+  Touch<T> touch[3];
+  const int nt = collider_touches(c, x0, x1, r, touch);
+  for (int j = 0; j < nt; ++j)
+    if (touch[j].gap < delta) take(touch[j]);
+}
+
 // One side of a contact that is an element: its slot, point, lever and what
 // its nodes and frame lend the contact.
 template <class T>
@@ -395,6 +408,31 @@ MANYRODS_HD inline bool in_elliptic_cone(T pa, T pt, T mu_a, T mu_t, T lam) {
   return qa * qa + qt * qt <= lam * lam;
 }
 
+// The unit axial direction ê_a in the plane ⟂ n (the element's unit tangent
+// `axis` projected), or zero where the friction is isotropic (mu[2] < 0) or
+// the axis is along n: the frame of axial friction, ê_t = n × ê_a.
+template <class T>
+MANYRODS_HD inline vec3<T> axial_tangent(vec3<T> axis, vec3<T> n, const T mu[4]) {
+  const vec3<T> zero{T(0), T(0), T(0)};
+  if (mu[2] < T(0)) return zero;
+  const vec3<T> ea = axis - dot(axis, n) * n;
+  const T len = norm(ea);
+  return len > T(1e-6) ? (T(1) / len) * ea : zero;
+}
+
+// Axial friction's kinetic impulse against the slip vt (in the plane ⟂ n),
+// scaled by s (−λ: the impulse; −1: per unit λ): the maximal-dissipation
+// direction on the elliptic cone,
+//   s (μ_a² v_a ê_a + μ_t² v_t ê_t) / √(μ_a² v_a² + μ_t² v_t²),
+// μ_a, μ_t the kinetic coefficients along ê_a, ê_t; zero without slip.
+template <class T>
+MANYRODS_HD inline vec3<T> elliptic_kinetic(vec3<T> vt, vec3<T> ea, vec3<T> et, T mka, T mkt, T s) {
+  const T va = dot(vt, ea), vv = dot(vt, et);
+  const T nrm = norm(vec3<T>{mka * va, mkt * vv, T(0)});
+  if (!(nrm > T(0))) return vec3<T>{T(0), T(0), T(0)};
+  return (s / nrm) * (mka * mka * va * ea + mkt * mkt * vv * et);
+}
+
 // The Coulomb impulse (see the header) for slip velocity vt in the plane ⟂ n,
 // compliance C (symmetric 3×3: xx xy xz yy yz zz), normal impulse lam,
 // coefficients mu = {static, kinetic, static axial, kinetic axial} (axial < 0:
@@ -417,18 +455,11 @@ MANYRODS_HD inline vec3<T> coulomb_impulse(vec3<T> n, vec3<T> vt, const T C[6], 
   const T x1 = -speed * a22 / det, x2 = speed * a12 / det;
   const vec3<T> stick = x1 * t1 + x2 * t2;
   const T stick_len = norm(stick);
-  const bool aniso = mu[2] >= T(0);
-  vec3<T> ea = axis - dot(axis, n) * n;
-  const T ea_len = norm(ea);
-  if (aniso && ea_len > T(1e-6)) {
-    ea = (T(1) / ea_len) * ea;
+  const vec3<T> ea = axial_tangent(axis, n, mu);
+  if (ea.x != T(0) || ea.y != T(0) || ea.z != T(0)) {
     const vec3<T> et = cross(n, ea);
-    const T ms[2] = {mu[2], mu[0]}, mk[2] = {mu[3] >= T(0) ? mu[3] : mu[1], mu[1]};
-    if (in_elliptic_cone(dot(stick, ea), dot(stick, et), ms[0], ms[1], lam)) return stick;
-    const T va = dot(vt, ea), vv = dot(vt, et);
-    const T nrm = norm(vec3<T>{mk[0] * va, mk[1] * vv, T(0)});
-    if (!(nrm > T(0))) return zero;
-    const vec3<T> slip = (-lam / nrm) * (mk[0] * mk[0] * va * ea + mk[1] * mk[1] * vv * et);
+    if (in_elliptic_cone(dot(stick, ea), dot(stick, et), mu[2], mu[0], lam)) return stick;
+    const vec3<T> slip = elliptic_kinetic(vt, ea, et, mu[3] >= T(0) ? mu[3] : mu[1], mu[1], -lam);
     return norm(slip) > stick_len ? stick : slip;
   }
   if (stick_len <= mu[0] * lam) return stick;
@@ -588,12 +619,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
       // (a rod the implicit solve steps met them there)
       for (int i = 0; i < (cv.colliders_in_solve(rod) ? 0 : cv.collider_count); ++i) {
         const ColliderFrame<T>& c = cv.colliders[i];
-        const T delta = collider_range(c, x0, x1, r, va, reach);
-        Touch<T> touch[3];
-        const int nt = collider_touches(c, x0, x1, r, touch);
-        for (int j = 0; j < nt; ++j) {
-          const Touch<T>& t = touch[j];
-          if (!(t.gap < delta)) continue;
+        touches_in_range(c, x0, x1, r, va, reach, [&](const Touch<T>& t) {
           acc.count_in(t.s);
           if constexpr (kImpulse) {
             const vec3<T> rho = (-r) * t.n;
@@ -608,7 +634,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
                 contact_impulse(a, b, t.n, t.gap, mu, axis, h, cv.hardness, cv.damping_ratio, lam, pt);
             acc.add(t.s, p, rho, a.d3, pt);
           }
-        }
+        });
       }
     }
     if constexpr (kRods) {

@@ -83,15 +83,10 @@ MANYRODS_HD inline vec3<T> tangential(vec3<T> v, vec3<T> n) {
   return v - dot(n, v) * n;
 }
 
-// The axial unit vector in the tangent plane, or zero when the contact is
-// isotropic (mu[2] < 0) or the axis is along n.
+// The axial unit vector in the tangent plane (kernels/contact.h axial_tangent).
 template <class T>
 MANYRODS_HD inline vec3<T> axial_direction(const SolveContact<T>& c) {
-  const vec3<T> zero{T(0), T(0), T(0)};
-  if (c.mu[2] < T(0)) return zero;
-  const vec3<T> ea = tangential(c.axis, c.n);
-  const T len = norm(ea);
-  return len > T(1e-6) ? (T(1) / len) * ea : zero;
+  return axial_tangent(c.axis, c.n, c.mu);
 }
 
 // Whether the tangential impulse p lies in the static cone of λ.
@@ -112,12 +107,7 @@ MANYRODS_HD inline vec3<T> kinetic_direction(const SolveContact<T>& c, vec3<T> s
   if (!(len > T(0))) return zero;
   const vec3<T> ea = axial_direction(c);
   if (ea.x == T(0) && ea.y == T(0) && ea.z == T(0)) return (-c.mu[1] / len) * slip;
-  const vec3<T> et = cross(c.n, ea);
-  const T mka = c.mu[3] >= T(0) ? c.mu[3] : c.mu[1], mkt = c.mu[1];
-  const T sa = dot(slip, ea), st = dot(slip, et);
-  const T d = norm(vec3<T>{mka * sa, mkt * st, T(0)});
-  if (!(d > T(0))) return zero;
-  return (T(-1) / d) * (mka * mka * sa * ea + mkt * mkt * st * et);
+  return elliptic_kinetic(slip, ea, cross(c.n, ea), c.mu[3] >= T(0) ? c.mu[3] : c.mu[1], c.mu[1], T(-1));
 }
 
 // x = E⁻¹ r for a symmetric 3×3 E (Cholesky); false, x untouched, where E

@@ -66,12 +66,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
     const T va = max_speed(st, k);
     for (int i = 0; i < cv.collider_count; ++i) {
       const ColliderFrame<T>& c = cv.colliders[i];
-      const T delta = collider_range(c, x0, x1, r, va, reach);
-      Touch<T> touch[3];
-      const int nt = collider_touches(c, x0, x1, r, touch);
-      for (int j = 0; j < nt; ++j) {
-        const Touch<T>& t = touch[j];
-        if (!(t.gap < delta)) continue;
+      touches_in_range(c, x0, x1, r, va, reach, [&](const Touch<T>& t) {
         SolveContact<T> sc;
         sc.k = k;
         sc.s = t.s;
@@ -83,7 +78,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
         if (t.s < T(1)) buf.weight[std::size_t(k - first)] += T(1);
         if (t.s > T(0)) buf.weight[std::size_t(k + 1 - first)] += T(1);
         buf.contacts.push_back(sc);
-      }
+      });
     }
   }
   // the contacts' masses (kernels/contact.h element_side); a contact
@@ -270,8 +265,7 @@ int reference_hold(const RodBatch<T>& b, const Segment& r, int ri) {
   return hold;
 }
 
-// u⁻ back into rod ri, in the solve's frame (sign −1), or its hold's rigid
-// motion added back (sign +1) (host/core/step/implicit_solve.h shift_hold).
+// u⁻ (saved by contact_solve_save) back into rod ri.
 template <class T>
 void restore_pre_solve(RodBatch<T>& b, int ri, const ContactView<T>& cv) {
   const StateView<T> s = b.state_view();
@@ -292,9 +286,10 @@ void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, 
                                const Segment& r) {
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
-  int first[W], cells[W], n = 0;
+  int first[W], cells[W], hold[W], n = 0;  // hold: each rod's reference hold, or −1
   T stiff_h[W];
   for (int j = 0; j < W; ++j) {  // a group short of W fills up with its last rod
+    hold[j] = -1;
     const RodInfo& rod = b.rods[std::size_t(rods[j < count ? j : count - 1])];
     first[j] = rod.offset + 1;
     cells[j] = rod.elements + 1;
@@ -304,13 +299,14 @@ void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, 
   n += 1;  // the root ghost cell (see viscous_implicit_lanes)
   for (int j = 0; j < count; ++j) {
     restore_pre_solve(b, rods[j], cv);
-    if (const int hold = reference_hold(b, r, rods[j]); hold >= 0) shift_hold(b, hold, T(-1));
+    hold[j] = reference_hold(b, r, rods[j]);
+    if (hold[j] >= 0) shift_hold(b, hold[j], T(-1));
   }
   Tc* kp[kKeepValues];
   keep_pointers(keep, W * n, kp);
   viscous_implicit_lanes<kKernel, W, true>(first, cells, h, stiff_h, m, s, sc, kp);
   for (int j = 0; j < count; ++j)
-    if (const int hold = reference_hold(b, r, rods[j]); hold >= 0) shift_hold(b, hold, T(1));
+    if (hold[j] >= 0) shift_hold(b, hold[j], T(1));
   for (int j = 0; j < count; ++j)
     if (find_solve_contacts(b, rods[j], h, cv, buf))
       contacts_through_factors(b, rods[j], h, cv, buf, factor_view(kp, sc, W, j, n - cells[j]));
