@@ -178,7 +178,9 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
     c.v = point_velocity(c, s.node_v);
     c.in = false;
     using std::abs;
-    scale = std::max(scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * abs(c.gap) / (h * b_law));
+    // its approach speed and, if it overlaps, the normal law's push-out
+    // speed (a contact in range but apart adds no speed of its own)
+    scale = std::max(scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * std::max(T(0), -c.gap) / (h * b_law));
   }
   bool added = false;
   for (int j = 0; j < nc; ++j)
@@ -190,8 +192,12 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
   // order, until a sweep moves no contact point's velocity by more than the
   // tolerance of the contacts' velocity scale (the impulses' split between
   // contacts that a stiff rod joins rigidly may converge far more slowly:
-  // it moves nothing); then any contact that the impulses make act joins
+  // it moves nothing), or until the sweeps cycle (their largest move has
+  // not halved in kContactStallSweeps sweeps: kernels/contact_solve.h);
+  // then any contact that the impulses make act joins
   while (added) {
+    T best = T(0);  // the smallest largest move so far, halving
+    int best_at = 0;
     for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep) {
       T moved = T(0);
       for (int i = 0; i < nc; ++i) {
@@ -207,6 +213,11 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
         moved = std::max(moved, norm(c.v - v0));
       }
       if (!(moved > kContactSweepTolerance<T> * scale)) break;
+      if (sweep == 0 || moved < T(0.5) * best) {
+        best = moved;
+        best_at = sweep;
+      }
+      if (sweep - best_at >= kContactStallSweeps) break;
     }
     added = false;
     for (int j = 0; j < nc; ++j)
