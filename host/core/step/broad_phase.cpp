@@ -116,14 +116,15 @@ double midpoint(const ConstStateView<T>& s, int k, int axis) {
 }
 
 // The grid holds element midpoints: its cells' elements are
-// ContactData::cell_slot[cell_start[i] .. cell_start[i+1]), and `mid` their
-// midpoints in that order (the box test streams them).
+// ContactData::cell_slot[cell_start[i] .. cell_start[i+1]), and `lo`, `hi`
+// their segments' boxes grown by their radius and skin, in that order (the
+// box test streams them).
 struct CellGrid {
   double gmin[3] = {1e300, 1e300, 1e300}, gmax[3] = {-1e300, -1e300, -1e300};  // the midpoints' bounding box
   std::int64_t dim[3] = {};                                                      // cells per axis
   double inv = 0;                                                                // 1 / the cell's edge
   int real = 0;                                                                  // the elements it holds
-  std::array<std::vector<double>, 3> mid;                                        // the midpoints in grid order
+  std::array<std::vector<double>, 3> lo, hi;  // the segments' boxes, grown by r + skin, in grid order
 
   std::int64_t cell_at(double x, int a) const {
     const double i = std::floor((x - gmin[a]) * inv);
@@ -183,8 +184,15 @@ void fill_grid(ContactData<T>& c, const ConstStateView<T>& s, int n, CellGrid& g
       if (c.elem_rod[k] >= 0) c.cell_slot[std::size_t(fill[cell_of[std::size_t(k)]]++)] = k;
   }
   for (int a = 0; a < 3; ++a) {
-    g.mid[a].resize(std::size_t(g.real));
-    for (int i = 0; i < g.real; ++i) g.mid[a][std::size_t(i)] = midpoint(s, c.cell_slot[std::size_t(i)], a);
+    g.lo[a].resize(std::size_t(g.real));
+    g.hi[a].resize(std::size_t(g.real));
+    for (int i = 0; i < g.real; ++i) {
+      const int k = c.cell_slot[std::size_t(i)];
+      const double x0 = double(s.node_x[a][k]), x1 = double(s.node_x[a][k + 1]);
+      const double grow = double(c.elem_radius[k]) + double(c.elem_skin[k]);
+      g.lo[a][std::size_t(i)] = std::min(x0, x1) - grow;
+      g.hi[a][std::size_t(i)] = std::max(x0, x1) + grow;
+    }
   }
 }
 
@@ -195,18 +203,23 @@ void fill_grid(ContactData<T>& c, const ConstStateView<T>& s, int n, CellGrid& g
 // per axis inside a's bounding box grown by
 // D_a = s_a + s_b,max + r_a + r_max + ½ l_max. Each element visits the
 // cells that box covers (a long, thin element visits a slab, not a cube),
-// row by row along x.
+// row by row along x, and tests their elements' grown segment boxes against
+// its own (overlapping boxes imply a midpoint in its box).
 template <class T, class Take>
 void gather(const ContactData<T>& c, const ConstStateView<T>& s, const Reaches& re, const CellGrid& g, int k,
             Take&& take) {
   const int ra = c.elem_rod[k];
   const double D = double(c.elem_skin[k]) + (wide(c, re, k) ? re.s_max : re.s_thr) + double(c.elem_radius[k]) +
                    c.max_radius + 0.5 * re.lmax;
-  double lo[3], hi[3];
+  const double grow = double(c.elem_radius[k]) + double(c.elem_skin[k]);
+  double lo[3], hi[3], own_lo[3], own_hi[3];  // own: a's segment box grown by r_a + s_a
   std::int64_t c0[3], c1[3];
   for (int a = 0; a < 3; ++a) {
-    lo[a] = std::min(double(s.node_x[a][k]), double(s.node_x[a][k + 1])) - D;
-    hi[a] = std::max(double(s.node_x[a][k]), double(s.node_x[a][k + 1])) + D;
+    const double x0 = double(s.node_x[a][k]), x1 = double(s.node_x[a][k + 1]);
+    lo[a] = std::min(x0, x1) - D;
+    hi[a] = std::max(x0, x1) + D;
+    own_lo[a] = std::min(x0, x1) - grow;
+    own_hi[a] = std::max(x0, x1) + grow;
     c0[a] = g.cell_at(lo[a], a);
     c1[a] = g.cell_at(hi[a], a);
   }
@@ -215,12 +228,25 @@ void gather(const ContactData<T>& c, const ConstStateView<T>& s, const Reaches& 
       const int first = c.cell_start[g.index(c0[0], cy, cz)], last = c.cell_start[g.index(c1[0], cy, cz) + 1];
       for (int i = first; i < last; ++i) {
         const std::size_t u = std::size_t(i);
-        if (!(g.mid[0][u] >= lo[0] && g.mid[0][u] <= hi[0] && g.mid[1][u] >= lo[1] && g.mid[1][u] <= hi[1] &&
-              g.mid[2][u] >= lo[2] && g.mid[2][u] <= hi[2]))
-          continue;
+        // grown segment boxes apart: the segments are at least r_a + s_a +
+        // r_b + s_b apart, so the gap test below would drop b too (one
+        // branch: most of the cells' elements are not near a)
+        const bool near = (g.lo[0][u] < own_hi[0]) & (own_lo[0] < g.hi[0][u]) & (g.lo[1][u] < own_hi[1]) &
+                          (own_lo[1] < g.hi[1][u]) & (g.lo[2][u] < own_hi[2]) & (own_lo[2] < g.hi[2][u]);
+        if (!near) continue;
         const int kb = c.cell_slot[u], rb = c.elem_rod[kb];
         if (!wide(c, re, k) && wide(c, re, kb)) continue;  // handed over by kb
         if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self)) continue;
+        // the segments' boxes apart on an axis by at least the reach: their
+        // distance is at least that, so the gap test below would drop b too
+        const double reach = double(c.elem_skin[k]) + double(c.elem_skin[kb]) + double(c.elem_radius[k]) +
+                             double(c.elem_radius[kb]);
+        bool apart = false;
+        for (int a = 0; a < 3 && !apart; ++a) {
+          const double b0 = double(s.node_x[a][kb]), b1 = double(s.node_x[a][kb + 1]);
+          apart = std::min(b0, b1) - (hi[a] - D) >= reach || (lo[a] + D) - std::max(b0, b1) >= reach;
+        }
+        if (apart) continue;
         // (the gap at r_a + r_b: a near pair's is larger, so the list holds it early)
         const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
         if (double(gap) < double(c.elem_skin[k]) + double(c.elem_skin[kb])) take(kb);
