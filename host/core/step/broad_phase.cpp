@@ -237,16 +237,6 @@ void gather(const ContactData<T>& c, const ConstStateView<T>& s, const Reaches& 
         const int kb = c.cell_slot[u], rb = c.elem_rod[kb];
         if (!wide(c, re, k) && wide(c, re, kb)) continue;  // handed over by kb
         if (!rod_pair_allowed(k, ra, kb, rb, c.spec.rod_rod, c.spec.self)) continue;
-        // the segments' boxes apart on an axis by at least the reach: their
-        // distance is at least that, so the gap test below would drop b too
-        const double reach = double(c.elem_skin[k]) + double(c.elem_skin[kb]) + double(c.elem_radius[k]) +
-                             double(c.elem_radius[kb]);
-        bool apart = false;
-        for (int a = 0; a < 3 && !apart; ++a) {
-          const double b0 = double(s.node_x[a][kb]), b1 = double(s.node_x[a][kb + 1]);
-          apart = std::min(b0, b1) - (hi[a] - D) >= reach || (lo[a] + D) - std::max(b0, b1) >= reach;
-        }
-        if (apart) continue;
         // (the gap at r_a + r_b: a near pair's is larger, so the list holds it early)
         const T gap = pair_geometry(std::min(k, kb), std::max(k, kb), s.node_x, c.elem_radius.data()).gap;
         if (double(gap) < double(c.elem_skin[k]) + double(c.elem_skin[kb])) take(kb);

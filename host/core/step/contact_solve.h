@@ -177,7 +177,6 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
     c.p = vec3<T>{T(0), T(0), T(0)};
     c.v = point_velocity(c, s.node_v);
     c.in = false;
-    using std::abs;
     // its approach speed and, if it overlaps, the normal law's push-out
     // speed (a contact in range but apart adds no speed of its own)
     scale = std::max(scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * std::max(T(0), -c.gap) / (h * b_law));
