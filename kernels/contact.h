@@ -80,6 +80,10 @@ struct ContactView {
   // (kernels/contact_solve.h): ContactData::rod_in_solve of the step's solve
   const int* rod_in_solve = nullptr;
   MANYRODS_HD bool colliders_in_solve(int rod) const { return rod_in_solve[rod] != 0; }
+  // 1: the step has self contact (Terms::rod_contact, ContactSpec::self), and
+  // the rods the solve steps meet themselves there too, not in the stage
+  int self_in_solve = 0;
+  MANYRODS_HD bool self_solved(int rod) const { return self_in_solve != 0 && rod_in_solve[rod] != 0; }
   int* elem_count = nullptr;
   int* elem_count_lo = nullptr;  // of them on node k (s < 1)
   int* elem_count_hi = nullptr;  // on node k+1 (s > 0)
@@ -641,6 +645,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
       const int nc = cv.neighbour_count[k];
       for (int j = 0; j < nc; ++j) {
         const int kb = cv.neighbours[std::size_t(k) * std::size_t(cv.capacity) + std::size_t(j)];
+        if (cv.elem_rod[kb] == rod && cv.self_solved(rod)) continue;  // met in its solve (kernels/contact_solve.h)
         const int lo = k < kb ? k : kb, hi = k < kb ? kb : k;
         const int near = pair_near(lo, hi, cv.elem_rod, cv.rod_near);
         const PairGeometry<T> g = pair_geometry(lo, hi, st.node_x, cv.elem_radius, near);

@@ -1,5 +1,5 @@
-// kernels/contact_solve.h — collider contacts inside the implicit per-rod
-// solve (docs/contact.md "Contact inside the implicit solve").
+// kernels/contact_solve.h — collider and self contacts inside the implicit
+// per-rod solve (docs/contact.md "Contact inside the implicit solve").
 //
 // A rod the implicit solve steps (stiff, or damped with the Kelvin–Voigt
 // term solved) meets the colliders through the same linear system as its
@@ -16,6 +16,12 @@
 //   u⁺ = u_f + A⁻¹ Σ_i J_iᵀ p_i,   v_i = v_{f,i} + Σ_j W_ij p_j,
 //   W_ij = J_i A⁻¹ J_jᵀ (3×3 blocks: the rod's Delassus operator; columns
 //   from the factors, viscous_solve_factored).
+// A self contact (element k at s against element k2 > k of the same rod at
+// t, kernels/contact.h pair_geometry; n from the partner's point to k's)
+// acts on the relative velocity of its two points,
+//   v_i = J_i u = (1 − s) v_k + s v_{k+1} − (1 − t) v_k2 − t v_{k2+1},
+// +p on the first, −p on the second, v_p = 0: both sides are in the rod's
+// system, so it is solved exactly, as a collider contact is.
 // Each contact obeys the normal law of kernels/contact.h (C1) on the point's
 // end-of-step velocity: with b = Ω² + 2ζΩ and a the contact's mass (its
 // share of its nodes, 1/a = (1 − s)² c_k/m_k + s² c_{k+1}/m_{k+1}, c_j the
@@ -78,10 +84,12 @@ template <class T>
 struct SolveContact {
   int k = -1;                  // the element's slot (nodes k, k+1)
   T s = 0;                     // the point on it, 0 … 1
+  int k2 = -1;                 // self contact: the partner element's slot (> k, same rod); −1: a collider
+  T t = 0;                     // self contact: the point on the partner, 0 … 1
   T a = 0;                     // kg: the contact's mass (S1); 0: both nodes held (no contact)
   T gap = 0;                   // m: the contact's gap (< 0: overlap)
-  vec3<T> n{0, 0, 1};          // unit normal, from the collider to the rod
-  vec3<T> vp{0, 0, 0};         // m/s: the collider's surface velocity
+  vec3<T> n{0, 0, 1};          // unit normal, from the collider (partner point) to the rod's point
+  vec3<T> vp{0, 0, 0};         // m/s: the collider's surface velocity (0 for a self contact)
   vec3<T> axis{0, 0, 1};       // the element's unit tangent (axial friction)
   T mu[4] = {0, 0, -1, -1};    // static, kinetic, static axial, kinetic axial (kernels/contact.h pair_mu)
   vec3<T> p{0, 0, 0};          // N·s: its impulse
@@ -148,10 +156,14 @@ MANYRODS_HD inline bool spd3_solve(const mat3<T>& e, vec3<T> r, vec3<T>& x) {
 
 }  // namespace contact_solve_detail
 
-// The velocity of the contact's centreline point, (1 − s) v_k + s v_{k+1}.
+// The velocity of the contact's centreline point, J u = (1 − s) v_k + s v_{k+1};
+// of a self contact, relative to the partner's point:
+// J u = (1 − s) v_k + s v_{k+1} − (1 − t) v_k2 − t v_{k2+1}.
 template <class T>
 MANYRODS_HD inline vec3<T> point_velocity(const SolveContact<T>& c, const T* const v[3]) {
-  return (T(1) - c.s) * load3(v, c.k) + c.s * load3(v, c.k + 1);
+  const vec3<T> own = (T(1) - c.s) * load3(v, c.k) + c.s * load3(v, c.k + 1);
+  if (c.k2 < 0) return own;
+  return own - ((T(1) - c.t) * load3(v, c.k2) + c.t * load3(v, c.k2 + 1));
 }
 
 // Contact c's impulse (S1–S3) for the point velocity v_rest without it and

@@ -1,10 +1,12 @@
-// host/core/step/contact_solve.h — collider contacts inside the implicit
-// solve (kernels/contact_solve.h; docs/contact.md "Contact inside the
-// implicit solve"):
+// host/core/step/contact_solve.h — collider and self contacts inside the
+// implicit solve (kernels/contact_solve.h; docs/contact.md "Contact inside
+// the implicit solve"):
 //
 //   contact_solve_save    the velocities before the solve (u⁻), per slot
 //   contact_solve_stage   after the solve: each rod the solve steps finds
-//                         its collider contacts at the solve's geometry and,
+//                         its collider and self contacts (with rod contact
+//                         on, from the broad phase's lists, built before
+//                         this stage) at the solve's geometry and,
 //                         if one acts, is solved again from u⁻ keeping its
 //                         factors, its contacts' impulses are solved with
 //                         its Delassus operator and it takes them through
@@ -45,9 +47,12 @@ void contact_solve_save(RodBatch<T>& b, const Exec& ex, const Segment& r) {
 
 namespace detail {
 
-// Rod `ri`'s collider contacts in range at the solve's geometry, into
-// buf.contacts (kernels/contact_solve.h). Returns whether one acts on its
-// own at the velocities the first solve gave (if none does, none acts).
+// Rod `ri`'s collider contacts and (ContactView::self_solved) self contacts
+// in range at the solve's geometry, into buf.contacts (kernels/
+// contact_solve.h): the ranges and geometry of the stage's
+// (kernels/contact.h element_contacts), each self pair once, from its lower
+// element's list. Returns whether one acts on its own at the velocities the
+// first solve gave (if none does, none acts).
 template <class T>
 bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf) {
   using namespace contact_detail;
@@ -80,9 +85,35 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
         buf.contacts.push_back(sc);
       });
     }
+    if (cv.self_solved(ri)) {
+      const int near = cv.rod_near[ri];
+      const int* list = cv.neighbours + std::size_t(k) * std::size_t(cv.capacity);
+      for (int j = 0; j < cv.neighbour_count[k]; ++j) {
+        const int kb = list[j];
+        if (kb <= k || cv.elem_rod[kb] != ri) continue;
+        const PairGeometry<T> g = pair_geometry(k, kb, st.node_x, cv.elem_radius, near);
+        const T margin = kb - k <= near ? T(0) : T(0.5) * (r + cv.elem_radius[kb]);  // (as the stage's)
+        if (!(g.gap < reach * (va + max_speed(st, kb)) + margin)) continue;
+        SolveContact<T> sc;
+        sc.k = k;
+        sc.s = g.s;
+        sc.k2 = kb;
+        sc.t = g.t;
+        sc.gap = g.gap;
+        sc.n = unit_or(g.d, g.len, any_orthogonal(g.e_lo));
+        sc.axis = axis;
+        pair_mu(cv.rod_mu + 4 * ri, true, cv.rod_mu + 4 * ri, true, sc.mu);
+        sc.mu[2] = sc.mu[3] = T(-1);  // isotropic between elements
+        if (g.s < T(1)) buf.weight[std::size_t(k - first)] += T(1);
+        if (g.s > T(0)) buf.weight[std::size_t(k + 1 - first)] += T(1);
+        if (g.t < T(1)) buf.weight[std::size_t(kb - first)] += T(1);
+        if (g.t > T(0)) buf.weight[std::size_t(kb + 1 - first)] += T(1);
+        buf.contacts.push_back(sc);
+      }
+    }
   }
-  // the contacts' masses (kernels/contact.h element_side); a contact
-  // between two held nodes is none. Two elements' contacts at their shared
+  // the contacts' masses (kernels/contact.h element_side; a self contact's
+  // two sides in series); a contact between two held nodes is none. Two elements' contacts at their shared
   // node with one law (the same gap, normal, collider velocity and
   // friction, isotropic) are one contact of their summed mass: their laws
   // add up to its law exactly, and a pair of identical rows in W would
@@ -91,13 +122,16 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   bool any = false;
   const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
   auto same_law = [](const SolveContact<T>& p, const SolveContact<T>& q) {
-    return p.gap == q.gap && p.n.x == q.n.x && p.n.y == q.n.y && p.n.z == q.n.z && p.vp.x == q.vp.x &&
+    return p.k2 < 0 && q.k2 < 0 && p.gap == q.gap && p.n.x == q.n.x && p.n.y == q.n.y && p.n.z == q.n.z && p.vp.x == q.vp.x &&
            p.vp.y == q.vp.y && p.vp.z == q.vp.z && p.mu[0] == q.mu[0] && p.mu[1] == q.mu[1] && p.mu[2] < T(0) &&
            q.mu[2] < T(0);
   };
   for (SolveContact<T>& c : buf.contacts) {
-    const T w = contact_compliance(c.s, m.node_inv_mass[c.k], m.node_inv_mass[c.k + 1],
-                                   buf.weight[std::size_t(c.k - first)], buf.weight[std::size_t(c.k + 1 - first)]);
+    T w = contact_compliance(c.s, m.node_inv_mass[c.k], m.node_inv_mass[c.k + 1],
+                             buf.weight[std::size_t(c.k - first)], buf.weight[std::size_t(c.k + 1 - first)]);
+    if (c.k2 >= 0)
+      w += contact_compliance(c.t, m.node_inv_mass[c.k2], m.node_inv_mass[c.k2 + 1],
+                              buf.weight[std::size_t(c.k2 - first)], buf.weight[std::size_t(c.k2 + 1 - first)]);
     if (!(w > T(0))) continue;
     c.a = T(1) / w;
     // acting on its own at the free solve's velocities ((S1): λ > 0)
@@ -128,72 +162,130 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
   const StateView<T> s = b.state_view();
   const RodInfo& rod = b.rods[std::size_t(ri)];
   const int first = rod.offset + 1, cells = rod.elements + 1;
-  // W_ij = J_i A⁻¹ J_jᵀ, block (i, j) at 9 (i nc + j), row-major: contact
-  // j's three columns solved together, back to the first contact's cell,
-  // for the contacts in the solve (in: those that act on their own at the
-  // free velocities, then any the others' impulses make act), every row
   std::vector<SolveContact<T>>& cs = buf.contacts;
   const int nc = int(cs.size());
   int low = cells;
   for (const SolveContact<T>& c : cs) low = std::min(low, c.k - first);
-  buf.delassus.resize(std::size_t(9) * std::size_t(nc) * std::size_t(nc));
   buf.x.resize(std::size_t(18) * std::size_t(cells));
-  T* const w = buf.delassus.data();
   double* const x = buf.x.data();
-  auto block = [&](int i, int j) { return w + 9 * (std::ptrdiff_t(i) * nc + j); };
-  auto column = [&](int j) {
+  // The contacts in the solve (in: those that act on their own at the free
+  // velocities, then any the others' impulses make act) are buf.members, in
+  // the order they joined; W over them only: W_ij = J_i A⁻¹ J_jᵀ of members
+  // at places a = place[i], b = place[j] is the block at 9 (a cap + b),
+  // row-major. A contact in range that never acts costs no column and no
+  // row (a coiled rod has hundreds of near self pairs in range, a tenth of
+  // them acting).
+  std::vector<int>& members = buf.members;
+  std::vector<int>& place = buf.place;
+  members.clear();
+  buf.joining.clear();
+  place.assign(std::size_t(nc), -1);
+  int cap = 0;
+  auto block = [&](int i, int j) {
+    return buf.delassus.data() + 9 * (std::ptrdiff_t(place[std::size_t(i)]) * cap + place[std::size_t(j)]);
+  };
+  auto reserve = [&](int need) {  // room for `need` members (grown by doubling, kept across rods)
+    if (need <= cap) return;
+    const int grown = std::max({need, 2 * cap, 16});
+    if (buf.spare.size() < std::size_t(9) * std::size_t(grown) * std::size_t(grown))
+      buf.spare.resize(std::size_t(9) * std::size_t(grown) * std::size_t(grown));
+    const int in = int(members.size());
+    for (int r = 0; r < in; ++r)
+      std::copy(buf.delassus.data() + 9 * std::ptrdiff_t(r) * cap, buf.delassus.data() + 9 * (std::ptrdiff_t(r) * cap + in),
+                buf.spare.data() + 9 * std::ptrdiff_t(r) * grown);
+    std::swap(buf.delassus, buf.spare);
+    cap = grown;
+  };
+  // J_i of the solved columns x (cell c's unknown d of column e at
+  // x[3 (6c + d) + e]): 3×3, row-major
+  auto project = [&](const SolveContact<T>& c, T* out) {
+    const double* x0 = x + 18 * (c.k - first);
+    for (int e = 0; e < 9; ++e) out[e] = T((1 - double(c.s)) * x0[e] + double(c.s) * x0[18 + e]);
+    if (c.k2 >= 0) {
+      const double* x2 = x + 18 * (c.k2 - first);
+      for (int e = 0; e < 9; ++e) out[e] -= T((1 - double(c.t)) * x2[e] + double(c.t) * x2[18 + e]);
+    }
+  };
+  // contact j joins: its three columns solved together, back to the first
+  // contact's cell; its row is its column's transpose (W is symmetric)
+  auto join = [&](int j) {
+    reserve(int(members.size()) + 1);
+    place[std::size_t(j)] = int(members.size());
+    members.push_back(j);
+    cs[std::size_t(j)].in = true;
     std::fill(x + 18 * low, x + 18 * cells, 0.0);
-    const int kj = cs[std::size_t(j)].k - first;
+    const SolveContact<T>& cj = cs[std::size_t(j)];
+    const int kj = cj.k - first;  // (a self contact's partner k2 > k: the solve still starts at k)
     for (int d = 0; d < 3; ++d) {
-      x[3 * (6 * kj + d) + d] = double(T(1) - cs[std::size_t(j)].s);
-      x[3 * (6 * (kj + 1) + d) + d] = double(cs[std::size_t(j)].s);
+      x[3 * (6 * kj + d) + d] = double(T(1) - cj.s);
+      x[3 * (6 * (kj + 1) + d) + d] = double(cj.s);
+      if (cj.k2 >= 0) {
+        x[3 * (6 * (cj.k2 - first) + d) + d] = -double(T(1) - cj.t);
+        x[3 * (6 * (cj.k2 + 1 - first) + d) + d] = -double(cj.t);
+      }
     }
     viscous_solve_factored<3>(f, cells, kj, low, x);
-    for (int i = 0; i < nc; ++i) {
-      const SolveContact<T>& c = cs[std::size_t(i)];
-      const double* x0 = x + 18 * (c.k - first);
-      for (int e = 0; e < 9; ++e) block(i, j)[e] = T((1 - double(c.s)) * x0[e] + double(c.s) * x0[18 + e]);
-    }
-    cs[std::size_t(j)].in = true;
-    for (int i = 0; i < nc; ++i)  // symmetric in exact arithmetic
-      if (cs[std::size_t(i)].in)
+    for (const int i : members) {
+      project(cs[std::size_t(i)], block(i, j));
+      if (i == j) {  // symmetric in exact arithmetic
+        T* w = block(j, j);
         for (int e = 0; e < 3; ++e)
-          for (int d = 0; d < 3; ++d) {
-            const T v = T(0.5) * (block(i, j)[3 * e + d] + block(j, i)[3 * d + e]);
-            block(i, j)[3 * e + d] = block(j, i)[3 * d + e] = v;
-          }
+          for (int d = e + 1; d < 3; ++d) w[3 * e + d] = w[3 * d + e] = T(0.5) * (w[3 * e + d] + w[3 * d + e]);
+      } else {
+        const T* wij = block(i, j);
+        T* wji = block(j, i);
+        for (int e = 0; e < 3; ++e)
+          for (int d = 0; d < 3; ++d) wji[3 * d + e] = wij[3 * e + d];
+      }
+    }
   };
   auto mat = [&](int i, int j) {
     mat3<T> r;
-    for (int e = 0; e < 9; ++e) r.m[e] = block(i, j)[e];
+    const T* w = block(i, j);
+    for (int e = 0; e < 9; ++e) r.m[e] = w[e];
     return r;
   };
   const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
-  auto acts = [&](const SolveContact<T>& c) {  // (S1): λ > 0 with no impulse of its own
-    return c.gap + h * (b_law / (cv.hardness * cv.hardness)) * dot(c.n, c.v - c.vp) < T(0);
+  auto acts = [&](const SolveContact<T>& c, vec3<T> v) {  // (S1): λ > 0 with no impulse of its own
+    return c.gap + h * (b_law / (cv.hardness * cv.hardness)) * dot(c.n, v - c.vp) < T(0);
   };
   T scale = T(0);
   for (SolveContact<T>& c : cs) {
     c.p = vec3<T>{T(0), T(0), T(0)};
-    c.v = point_velocity(c, s.node_v);
+    c.v = point_velocity(c, s.node_v);  // the free solve's (kept for those not in the solve)
     c.in = false;
     // its approach speed and, if it overlaps, the normal law's push-out
     // speed (a contact in range but apart adds no speed of its own)
     scale = std::max(scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * std::max(T(0), -c.gap) / (h * b_law));
   }
-  bool added = false;
   for (int j = 0; j < nc; ++j)
-    if (acts(cs[std::size_t(j)])) {
-      column(j);
-      added = true;
+    if (acts(cs[std::size_t(j)], cs[std::size_t(j)].v)) join(j);
+  // the rod's response to the impulses, Δu = A⁻¹ Σ J_iᵀ p_i, into x (6 per cell)
+  auto response = [&]() {
+    std::fill(x, x + 6 * cells, 0.0);
+    for (const int i : members) {
+      const SolveContact<T>& c = cs[std::size_t(i)];
+      const double p3[3] = {double(c.p.x), double(c.p.y), double(c.p.z)};
+      for (int d = 0; d < 3; ++d) {
+        x[6 * (c.k - first) + d] += (1 - double(c.s)) * p3[d];
+        x[6 * (c.k + 1 - first) + d] += double(c.s) * p3[d];
+        if (c.k2 >= 0) {
+          x[6 * (c.k2 - first) + d] -= (1 - double(c.t)) * p3[d];
+          x[6 * (c.k2 + 1 - first) + d] -= double(c.t) * p3[d];
+        }
+      }
     }
+    viscous_solve_factored<1>(f, cells, low, 0, x);
+  };
   // projected block Gauss–Seidel over the contacts in the solve, in their
   // order, until a sweep moves no contact point's velocity by more than the
   // tolerance of the contacts' velocity scale (the impulses' split between
   // contacts that a stiff rod joins rigidly may converge far more slowly:
   // it moves nothing), or until the sweeps cycle (their largest move has
   // not halved in kContactStallSweeps sweeps: kernels/contact_solve.h);
-  // then any contact that the impulses make act joins
+  // then any contact that the impulses make act joins (its velocity from
+  // the rod's response), and the sweeps go on
+  bool added = !members.empty(), fresh = false;  // fresh: x holds the response to the impulses as they stand
   while (added) {
     T best = T(0);  // the smallest largest move so far, halving
     int best_at = 0;
@@ -207,7 +299,7 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
         const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
         const vec3<T> dp = p - c.p;
         if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
-          for (int j = 0; j < nc; ++j) cs[std::size_t(j)].v = cs[std::size_t(j)].v + mul(mat(j, i), dp);
+          for (const int j : members) cs[std::size_t(j)].v = cs[std::size_t(j)].v + mul(mat(j, i), dp);
         c.p = p;
         moved = std::max(moved, norm(c.v - v0));
       }
@@ -218,29 +310,39 @@ void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>&
       }
       if (sweep - best_at >= kContactStallSweeps) break;
     }
-    added = false;
-    for (int j = 0; j < nc; ++j)
-      if (!cs[std::size_t(j)].in && acts(cs[std::size_t(j)])) {
-        column(j);
-        added = true;
+    if (int(members.size()) == nc) break;
+    response();
+    fresh = true;
+    for (int j = 0; j < nc; ++j) {
+      SolveContact<T>& c = cs[std::size_t(j)];
+      if (c.in) continue;
+      const double* x0 = x + 6 * (c.k - first);
+      vec3<T> dv{T((1 - double(c.s)) * x0[0] + double(c.s) * x0[6]), T((1 - double(c.s)) * x0[1] + double(c.s) * x0[7]),
+                 T((1 - double(c.s)) * x0[2] + double(c.s) * x0[8])};
+      if (c.k2 >= 0) {
+        const double* x2 = x + 6 * (c.k2 - first);
+        dv = dv - vec3<T>{T((1 - double(c.t)) * x2[0] + double(c.t) * x2[6]),
+                          T((1 - double(c.t)) * x2[1] + double(c.t) * x2[7]),
+                          T((1 - double(c.t)) * x2[2] + double(c.t) * x2[8])};
       }
+      if (!acts(c, c.v + dv)) continue;
+      c.v = c.v + dv;
+      buf.joining.push_back(j);
+    }
+    for (const int j : buf.joining) join(j);  // (after every check: a column overwrites x)
+    added = !buf.joining.empty();
+    fresh = fresh && !added;
+    buf.joining.clear();
   }
   // the rod's response: u⁺ = u_f + A⁻¹ Σ J_iᵀ p_i
-  std::fill(x, x + 6 * cells, 0.0);
-  for (const SolveContact<T>& c : cs) {
-    const double p3[3] = {double(c.p.x), double(c.p.y), double(c.p.z)};
-    for (int d = 0; d < 3; ++d) {
-      x[6 * (c.k - first) + d] += (1 - double(c.s)) * p3[d];
-      x[6 * (c.k + 1 - first) + d] += double(c.s) * p3[d];
-    }
-  }
-  viscous_solve_factored<1>(f, cells, low, 0, x);
+  if (!fresh) response();
   for (int c = 0; c < cells; ++c)
     for (int d = 0; d < 3; ++d) {
       s.node_v[d][first + c] += T(x[6 * c + d]);
       s.elem_w[d][first + c] += T(x[6 * c + 3 + d]);
     }
-  // the work of the impulses, P·(v_n + v_{n+1})/2 at the point
+  // the work of the impulses, P·(v_n + v_{n+1})/2 at the point (a self
+  // contact: on both of its points, with the relative velocity)
   for (const SolveContact<T>& c : cs)
     if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0))
       cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
@@ -286,7 +388,7 @@ void restore_pre_solve(RodBatch<T>& b, int ri, const ContactView<T>& cv) {
   }
 }
 
-// Rods rods[0 … count) (count ≤ W, each with a collider contact that acts)
+// Rods rods[0 … count) (count ≤ W, each with a contact that acts)
 // solved again from u⁻ as one lane group of W lanes in Tc (kernels/
 // viscous_implicit_lanes.h, as the solve does, its factors kept), then each
 // rod's contacts through its lane's factors.
@@ -343,20 +445,20 @@ void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactVi
 }  // namespace detail
 
 // The stage on the rods of segment r that the solve steps (kSolve: the
-// solve's Terms), after the solve: which rods have a collider contact that
-// acts (a pass over the rods), then those rods again in lane groups of the
+// solve's Terms), after the solve: which rods have a collider or self
+// contact that acts (a pass over the rods), then those rods again in lane groups of the
 // solve's width (in double for a float batch's stiff rods, one by one with
 // prescribed velocities), each group's rods in their order: the result does
 // not depend on the thread count.
-// reads: model, state, contact data, colliders  writes: state.node_v, elem_w
+// reads: model, state, contact data and lists, colliders  writes: state.node_v, elem_w
 // of the rods with an acting contact, contact.work
 template <Terms kSolve, class T>
 void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r,
                          int thread) {
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
   constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
-  const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt);
-  if (cv.collider_count == 0) return;
+  const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt, kSolve.rod_contact);
+  if (cv.collider_count == 0 && cv.self_in_solve == 0) return;
   // one buffer per thread, reserved by the driver before its parallel
   // region (host/core/step/integrators.h prepare_solve); a call from
   // elsewhere (one thread) grows them here

@@ -36,9 +36,12 @@ namespace manyrods {
 
 // Kernel view of the batch's contact data with the colliders placed by `frames`.
 // solve_kv: the implicit solve integrates the Kelvin–Voigt term (its damped
-// rods meet the colliders there, ContactView::colliders_in_solve).
+// rods meet the colliders there, ContactView::colliders_in_solve); self_terms:
+// the step has rod contact (with ContactSpec::self, the rods the solve steps
+// meet themselves there, ContactView::self_solved).
 template <class T>
-ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool solve_kv = false) {
+ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool solve_kv = false,
+                            bool self_terms = false) {
   ContactData<T>& c = b.contact;
   ContactView<T> v;
   v.colliders = frames;
@@ -51,6 +54,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool
   v.rod_mu_own = c.rod_mu_own.data();
   v.rod_stiff = c.rod_stiff.data();
   v.rod_in_solve = c.rod_in_solve[solve_kv ? 1 : 0].data();
+  v.self_in_solve = self_terms && c.spec.self ? 1 : 0;
   v.neighbours = c.neighbours.data();
   v.capacity = c.capacity;
   v.hardness = T(c.spec.hardness);
@@ -101,7 +105,7 @@ void contact_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Ex
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
   const ConstStateView<T> cs = std::as_const(b).state_view();
-  const ContactView<T> cv = contact_view(b, frames, solve_kv);
+  const ContactView<T> cv = contact_view(b, frames, solve_kv, kT.rod_contact);
   constexpr bool kC = kT.colliders, kR = kT.rod_contact;
   detail::for_slots(r.begin, r.end, ex, [&](int k) { element_contacts<kC, kR, false>(k, h, m, cs, cv); });
   detail::for_slots(r.begin, r.end, ex, [&](int k) { element_contacts<kC, kR, true>(k, h, m, cs, cv); });

@@ -13,8 +13,9 @@
 //   3. kick h:    v += h m⁻¹ F,  ω += h J⁻¹ C                  segment_kick
 //      (a fluid) v saved before the kick                       fluid_save_stage
 //   4. (M + hD) u⁺ = M u for damped and stiff rods             viscous_update
-//   4a. (colliders) the rods of 4 that touch one solved again
-//      with their contacts in the system                        contact_solve_stage
+//   4a. (colliders, self contact) the rods of 4 that touch one
+//      or themselves solved again with their contacts in the
+//      system (with rod contact, after the broad phase)          contact_solve_stage
 //   4b. (a fluid) kick and solve redone with the drag as an exact flow  fluid_stage
 //   4c. (contact Terms) [broad phase,] contact impulses         contact_step
 //   5. drift ½h                                                drift
@@ -68,9 +69,20 @@ constexpr Terms solve_terms() {
 // Which part of the step's stage list a call runs. Every stage runs on
 // one segment, except the contact stage with rod–rod contact, which couples
 // the rods (partners may be in any segment): then the driver runs the list
-// up to it on every segment, it on the whole batch, and the rest on every
-// segment.
-enum class Part { all, before_contact, contact, after_contact };
+// up to the implicit solve on every segment, the broad phase on the whole
+// batch (when the contact solve reads its lists: self contact), the solve's
+// contacts and the fluid on every segment, the contact stage on the whole
+// batch, and the rest on every segment.
+enum class Part { all, before_contact, contact_solve, contact, after_contact };
+
+// Whether the step solves contacts inside the implicit solve: colliders, or
+// self contact with rod contact (the rods it steps then find theirs there).
+template <Terms kT, class T>
+bool solves_contacts(const RodBatch<T>& b, bool solve) {
+  if constexpr (kT.colliders || kT.rod_contact)
+    return solve && ((kT.colliders && !b.contact.spec.colliders.empty()) || (kT.rod_contact && b.contact.spec.self));
+  return false;
+}
 
 // One Position Verlet step on segment r at time t, the stages in order (the
 // file comment's list). `done`: the batch's step count once the step is
@@ -93,16 +105,18 @@ void verlet_stages(RodBatch<T>& b, T dt, double t, std::int64_t done, bool solve
     const bool fluid = b.any_fluid();
     if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_save_stage(b, e, r); });
     timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
-    if constexpr (kT.colliders)
-      if (solve) timed(e, thread, Stage::contact_solve, [&] { contact_solve_save(b, e, r); });
+    if (solves_contacts<kT>(b, solve)) timed(e, thread, Stage::contact_solve, [&] { contact_solve_save(b, e, r); });
     if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
-    if constexpr (kT.colliders)
-      if (solve) timed(e, thread, Stage::contact_solve, [&] { contact_solve_stage<kSolve>(b, dt, frames, e, r, thread); });
+  }
+  if (part == Part::all || part == Part::contact_solve) {
+    if constexpr (kT.colliders || kT.rod_contact)
+      if (solves_contacts<kT>(b, solve))
+        timed(e, thread, Stage::contact_solve, [&] { contact_solve_stage<kSolve>(b, dt, frames, e, r, thread); });
     // after the solve: a stiff rod's kick leaves its unresolved stiff modes in
     // the velocities, which the drag's decay must not scale (the solve would
     // then no longer cancel them); the velocity update of kick and solve
     // together is the drag flow's frozen forcing (the kick's time: mid-step)
-    if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_stage(b, dt, t + 0.5 * double(dt), kT.gravity, e, r); });
+    if (b.any_fluid()) timed(e, thread, Stage::fluid, [&] { fluid_stage(b, dt, t + 0.5 * double(dt), kT.gravity, e, r); });
   }
   if (part == Part::all || part == Part::contact) contact_step<kT>(b, dt, frames, e, r, thread, kSolve.kelvin_voigt);
   if (part == Part::all || part == Part::after_contact) {
@@ -117,7 +131,7 @@ bool prepare_solve(RodBatch<T>& b, const Exec& ex) {
   const bool solve = detail::solve_terms<kT, kV>().kelvin_voigt || b.any_stiff();
   if (solve) b.reserve_implicit_scratch(ex.threads);
   // the contact solve's buffers, one per thread (before any parallel region)
-  if constexpr (kT.colliders)
+  if constexpr (kT.colliders || kT.rod_contact)
     if (solve && int(b.workspace->contact_solve.size()) < std::max(ex.threads, 1))
       b.workspace->contact_solve.resize(std::size_t(std::max(ex.threads, 1)));
   return solve;
@@ -129,8 +143,8 @@ bool prepare_solve(RodBatch<T>& b, const Exec& ex) {
 // of a block of steps before the next segment is touched (rods do not
 // interact, so the order does not change any result); a block is all
 // `count` steps, or one step when the contact stage couples the rods
-// (rod–rod contact): then each step runs its stages on every segment up to
-// the contact stage, the contact stage on the whole batch, and the rest.
+// (rod–rod contact): then each step runs its parts in turn (detail::Part),
+// each on every segment or on the whole batch.
 template <Terms kT, Viscous kV, class T>
 void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, const Exec& ex) {
 #ifndef MANYRODS_ISA_VARIANT  // the build of the step for the CPU (host/core/isa/isa_table.h)
@@ -157,6 +171,14 @@ void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, cons
                                       part);
     });
     if constexpr (kCoupled) {
+      // the lists the contact solve reads (self contact), at its positions
+      // (the contact stage checks them again at its velocities)
+      const bool contact_solve = detail::solves_contacts<kT>(b, solve);
+      if (contact_solve && b.contact.spec.self) timed(ex, 0, Stage::broad_phase, [&] { update_neighbours(b, dt, ex); });
+      if (contact_solve || b.any_fluid())
+        for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
+          detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, frames.data(), e, r, thread, Part::contact_solve);
+        });
       detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, frames.data(), ex, whole(b), 0, Part::contact);
       for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
         detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, frames.data(), e, r, thread, Part::after_contact);

@@ -37,13 +37,16 @@ struct SolveGroup {
 // a rod's collider contacts, its nodes' contact weights (cells), the factors
 // of its system (kernels/viscous_implicit.h FactorView, kKeepValues × cells;
 // keep_wide: a float batch's stiff rod, solved in double), its Delassus
-// operator (9 × contacts²) and three right-hand sides (18 × cells); the
+// operator over the contacts in the solve (members, their place in it, and
+// a spare for its growth: 9 × members²) and three right-hand sides (18 ×
+// cells); the
 // calling thread's: which rods of the segment have a contact that acts
 // (kind), those rods and the jobs they make ({kind, first, count}).
 template <class T>
 struct ContactSolveBuffer {
   std::vector<SolveContact<T>> contacts;
-  std::vector<T> weight, keep, delassus;
+  std::vector<T> weight, keep, delassus, spare;
+  std::vector<int> members, place, joining;
   std::vector<double> keep_wide, x;
   std::vector<char> kind;
   std::vector<int> rods;
