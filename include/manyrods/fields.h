@@ -93,6 +93,7 @@
   X(int, elem_count, elem_count, 1, 0, "[slots] the element's contacts in range (mass splitting)")              \
   X(int, elem_count_lo, elem_count_lo, 1, 0, "[slots] of them acting on node k (s < 1)")                        \
   X(int, elem_count_hi, elem_count_hi, 1, 0, "[slots] of them acting on node k+1 (s > 0)")                      \
+  X(int, elem_push, elem_push, 1, 0, "[slots] its rod–rod pairs in range that can push within the step")       \
   X(T, elem_p0, p0, 3, 0, "[3][slots] N·s: the impulse on node k from element k's contacts")                   \
   X(T, elem_p1, p1, 3, 0, "[3][slots] N·s: the impulse on node k+1")                                           \
   X(T, elem_l, l, 3, 0, "[3][slots] N·m·s: the couple impulse on element k (lab)")                              \
@@ -101,7 +102,8 @@
   X(T, elem_w_start, w_start, 3, 0, "[3][slots] rad/s: element k's angular velocity (material) at the step's start") \
   X(T, node_v_solve, v_solve, 3, 0, "[3][slots] m/s: node k's velocity before the implicit solve (kernels/contact_solve.h)") \
   X(T, elem_w_solve, w_solve, 3, 0, "[3][slots] rad/s: element k's angular velocity before the implicit solve") \
-  X(int, neighbour_count, neighbour_count, 1, 0, "[slots] the element's rod–rod candidates")
+  X(int, neighbour_count, neighbour_count, 1, 0, "[slots] the element's rod–rod candidates")                  \
+  X(T, elem_moved, elem_moved, 1, 0, "[slots] m: how far element k's nodes moved since the lists were built")
 #define MANYRODS_CONTACT_OWN_FIELDS(X)                                                                          \
   X(T, node_x_ref, 3, 0, "[3][slots] m: node positions at the last rebuild of the candidate lists")             \
   X(T, elem_skin, 1, 0, "[slots] m: element k's reach s_k at the last build (partners with gap < s_a + s_b are listed)")
