@@ -148,7 +148,6 @@ struct ContactData {
   std::vector<int> rod_near;  // [rods] elements |i − j| ≤ this apart touch at the tight-loop chord (kernels/contact.h near_contact_distance)
   // rod–rod broad phase (docs/contact.md "Finding rod–rod contacts")
   Array<int> neighbours;               // [slots × capacity] candidate partner slots of element k, in order
-  Array<T> neighbour_gap;              // [slots × capacity] m: each candidate's gap at the build (at r_a + r_b)
   int capacity = 0;                    // the lists' capacity now (spec.capacity, grown up to spec.max_capacity)
   std::int64_t list_growths = 0;       // times the lists grew
   std::vector<int> cell_start;  // the grid: cell i holds cell_slot[cell_start[i] .. cell_start[i+1])

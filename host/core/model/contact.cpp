@@ -247,10 +247,7 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
 #undef MANYRODS_CONTACT_ALLOCATE_OWN
   c.capacity = spec.capacity;
   c.list_growths = 0;
-  if (spec.rod_rod || spec.self) {
-    c.neighbours.resize(n * std::size_t(c.capacity), -1);
-    c.neighbour_gap.resize(n * std::size_t(c.capacity), T(0));
-  }
+  if (spec.rod_rod || spec.self) c.neighbours.resize(n * std::size_t(c.capacity), -1);
   c.rod_mu.assign(4 * std::size_t(b.rod_count()), T(0));
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);
   c.rod_near.assign(std::size_t(b.rod_count()), 1);

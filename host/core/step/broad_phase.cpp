@@ -40,26 +40,21 @@ double moved_since_build(const ContactData<T>& c, const ConstStateView<T>& s, in
   return m;
 }
 
-// Whether the built lists must be rebuilt (reach = h (1 + 2ζ/Ω)); each
-// element's motion since the build into ContactData::elem_moved (the
-// contact stage's bound on a listed pair's gap, kernels/contact.h).
+// Whether the built lists must be rebuilt (reach = h (1 + 2ζ/Ω)).
 // The lists stay valid while every element's nodes moved less than its
 // skin's margin: a pair left out at the build had gap ≥ s_a + s_b, so now
 // gap ≥ s_a + s_b − moved_a − moved_b ≥ need_a + need_b = δ_ab.
 template <class T>
-bool lists_stale(ContactData<T>& c, const ConstStateView<T>& s, int n, double reach, const Exec& ex) {
+bool lists_stale(const ContactData<T>& c, const ConstStateView<T>& s, int n, double reach, const Exec& ex) {
   int stale = 0;
   const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
 #pragma omp parallel num_threads(ex.threads) reduction(max : stale) if (ex.threads > 1)
   {
     const RegionFpScope fp(mode);
 #pragma omp for
-    for (int k = 0; k < n; ++k) {
-      if (c.elem_rod[k] < 0) continue;
-      const double moved = moved_since_build(c, s, k);
-      c.elem_moved[k] = T(moved);
-      if (moved + contact_need(c, s, k, reach) > double(c.elem_skin[k])) stale = 1;
-    }
+    for (int k = 0; k < n; ++k)
+      if (c.elem_rod[k] >= 0 && moved_since_build(c, s, k) + contact_need(c, s, k, reach) > double(c.elem_skin[k]))
+        stale = 1;
   }
   return stale != 0;
 }
@@ -327,7 +322,7 @@ int grown_capacity(const RodBatch<T>& b, int n, const std::vector<int>& count) {
   if (most > c.spec.max_capacity)
     throw list_overflow(b, k_most, most, "max_capacity = " + std::to_string(c.spec.max_capacity));
   const int cap = std::max(most, int(std::min<std::int64_t>(2 * std::int64_t(c.capacity), c.spec.max_capacity)));
-  const double bytes = double(n) * double(cap) * double(sizeof(int) + sizeof(T));  // neighbours, neighbour_gap
+  const double bytes = double(n) * double(cap) * double(sizeof(int));
   const double memory = double(physical_memory());
   if (memory > 0 && bytes > 0.5 * memory) {
     std::ostringstream os;
@@ -341,28 +336,15 @@ int grown_capacity(const RodBatch<T>& b, int n, const std::vector<int>& count) {
 
 // Finishes the lists (every count within the capacity): their lengths, and
 // each list in slot order (the contact sums do not depend on the grid, the
-// skins, the capacity or when the lists were built, docs/contact.md), each
-// candidate's gap now (at r_a + r_b, the contact stage's bound until the
-// next build); records the positions the lists were built at.
+// skins, the capacity or when the lists were built, docs/contact.md); records
+// the positions the lists were built at.
 template <class T>
-void finish_lists(RodBatch<T>& b, const ConstStateView<T>& s, int n, const std::vector<int>& count,
-                  const Exec& ex) {
+void finish_lists(RodBatch<T>& b, const ConstStateView<T>& s, int n, const std::vector<int>& count) {
   ContactData<T>& c = b.contact;
   const int cap = c.capacity;
-  const RegionFpMode mode = RegionFpMode::of_caller();
-#pragma omp parallel num_threads(ex.threads) if (ex.threads > 1)
-  {
-    const RegionFpScope fp(mode);
-#pragma omp for schedule(dynamic, kGuard)
-    for (int k = 0; k < n; ++k) {
-      int* list = neighbour_list(c, k, cap);
-      c.neighbour_count[k] = count[std::size_t(k)];
-      c.elem_moved[k] = T(0);
-      std::sort(list, list + c.neighbour_count[k]);
-      T* gap = c.neighbour_gap.data() + std::size_t(k) * std::size_t(cap);
-      for (int j = 0; j < c.neighbour_count[k]; ++j)
-        gap[j] = pair_geometry(std::min(k, list[j]), std::max(k, list[j]), s.node_x, c.elem_radius.data()).gap;
-    }
+  for (int k = 0; k < n; ++k) {
+    c.neighbour_count[k] = count[std::size_t(k)];
+    std::sort(neighbour_list(c, k, cap), neighbour_list(c, k, cap) + c.neighbour_count[k]);
   }
   for (int d = 0; d < 3; ++d)
     for (int k = 0; k < n; ++k) c.node_x_ref[d][k] = s.node_x[d][k];
@@ -392,12 +374,11 @@ void update_neighbours(RodBatch<T>& b, T h, const Exec& ex) {
     // wide element's list, cut short, had not handed over all its partners)
     c.capacity = grown_capacity(b, n, count);
     c.neighbours.resize(std::size_t(n) * std::size_t(c.capacity), -1);
-    c.neighbour_gap.resize(std::size_t(n) * std::size_t(c.capacity), T(0));
     ++c.list_growths;
     count = gather_candidates(c, s, n, *re, g, ex);
     hand_over(c, n, *re, count);
   }
-  finish_lists(b, s, n, count, ex);
+  finish_lists(b, s, n, count);
 }
 
 #define MANYRODS_BROAD_PHASE_INSTANTIATE(T) template void update_neighbours<T>(RodBatch<T>&, T, const Exec&);

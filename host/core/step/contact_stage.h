@@ -56,7 +56,6 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool
   v.rod_in_solve = c.rod_in_solve[solve_kv ? 1 : 0].data();
   v.self_in_solve = self_terms && c.spec.self ? 1 : 0;
   v.neighbours = c.neighbours.data();
-  v.neighbour_gap = c.neighbour_gap.data();
   v.capacity = c.capacity;
   v.hardness = T(c.spec.hardness);
   v.damping_ratio = T(c.spec.damping_ratio);
