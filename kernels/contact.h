@@ -575,6 +575,24 @@ MANYRODS_HD inline int pair_near(int ka, int kb, const int* elem_rod, const int*
   return elem_rod[ka] == elem_rod[kb] ? rod_near[elem_rod[ka]] : 0;
 }
 
+// The margin of the contact range of listed elements lo < hi (`near` as
+// pair_geometry's): ½ (r_lo + r_hi), but none for near elements of one rod,
+// so that the many always close to their contact distance (a ~straight rod)
+// are counted only when they can act within the step (the counts split the
+// node masses).
+template <class T>
+MANYRODS_HD inline T pair_margin(int lo, int hi, int near, const T* radius) {
+  return hi - lo <= near ? T(0) : T(0.5) * (radius[lo] + radius[hi]);
+}
+
+// The friction of elements of rods ra and rb (rod–rod and self contact):
+// pair_mu of the two rods' coefficients, isotropic.
+template <class T>
+MANYRODS_HD inline void rod_pair_mu(const ContactView<T>& cv, int ra, int rb, T out[4]) {
+  pair_mu(cv.rod_mu + 4 * ra, true, cv.rod_mu + 4 * rb, true, out);
+  out[2] = out[3] = T(-1);
+}
+
 namespace contact_detail {
 template <class T>
 MANYRODS_HD inline T max_speed(const ConstStateView<T>& st, int k) {
@@ -651,10 +669,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
         const int lo = k < kb ? k : kb, hi = k < kb ? kb : k;
         const int near = pair_near(lo, hi, cv.elem_rod, cv.rod_near);
         const T ra = cv.elem_radius[lo], rb = cv.elem_radius[hi];
-        // near elements of one rod: no margin, so that the many always close
-        // to their contact distance (a ~straight rod) are counted only when
-        // they can act within the step (the counts split the node masses)
-        const T margin = hi - lo <= near ? T(0) : T(0.5) * (ra + rb);
+        const T margin = pair_margin(lo, hi, near, cv.elem_radius);
         const T delta = reach * (max_speed(st, lo) + max_speed(st, hi)) + margin;
         const PairGeometry<T> g = pair_geometry(lo, hi, st.node_x, cv.elem_radius, near);
         if (!(g.gap < delta)) continue;
@@ -673,8 +688,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
           const ContactSide<T> sa = element_side(lo, g.s, (-ra) * n, m, st, cv);
           const ContactSide<T> sb = element_side(hi, g.t, rb * n, m, st, cv);
           T mu[4];
-          pair_mu(cv.rod_mu + 4 * cv.elem_rod[lo], true, cv.rod_mu + 4 * cv.elem_rod[hi], true, mu);
-          mu[2] = mu[3] = T(-1);  // isotropic between rods
+          rod_pair_mu(cv, cv.elem_rod[lo], cv.elem_rod[hi], mu);
           T lam;
           vec3<T> pt;
           const vec3<T> p = contact_impulse(sa, sb, n, g.gap, mu, axis, h, cv.hardness, cv.damping_ratio, lam, pt);

@@ -102,7 +102,7 @@
   X(T, elem_w_start, w_start, 3, 0, "[3][slots] rad/s: element k's angular velocity (material) at the step's start") \
   X(T, node_v_solve, v_solve, 3, 0, "[3][slots] m/s: node k's velocity before the implicit solve (kernels/contact_solve.h)") \
   X(T, elem_w_solve, w_solve, 3, 0, "[3][slots] rad/s: element k's angular velocity before the implicit solve") \
-  X(int, neighbour_count, neighbour_count, 1, 0, "[slots] the element's rod–rod candidates")                 
+  X(int, neighbour_count, neighbour_count, 1, 0, "[slots] the element's rod–rod candidates")
 #define MANYRODS_CONTACT_OWN_FIELDS(X)                                                                          \
   X(T, node_x_ref, 3, 0, "[3][slots] m: node positions at the last rebuild of the candidate lists")             \
   X(T, elem_skin, 1, 0, "[slots] m: element k's reach s_k at the last build (partners with gap < s_a + s_b are listed)")

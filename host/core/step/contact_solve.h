@@ -92,8 +92,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
         const int kb = list[j];
         if (kb <= k || cv.elem_rod[kb] != ri) continue;
         const PairGeometry<T> g = pair_geometry(k, kb, st.node_x, cv.elem_radius, near);
-        const T margin = kb - k <= near ? T(0) : T(0.5) * (r + cv.elem_radius[kb]);  // (as the stage's)
-        if (!(g.gap < reach * (va + max_speed(st, kb)) + margin)) continue;
+        if (!(g.gap < reach * (va + max_speed(st, kb)) + pair_margin(k, kb, near, cv.elem_radius))) continue;
         SolveContact<T> sc;
         sc.k = k;
         sc.s = g.s;
@@ -102,8 +101,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
         sc.gap = g.gap;
         sc.n = unit_or(g.d, g.len, any_orthogonal(g.e_lo));
         sc.axis = axis;
-        pair_mu(cv.rod_mu + 4 * ri, true, cv.rod_mu + 4 * ri, true, sc.mu);
-        sc.mu[2] = sc.mu[3] = T(-1);  // isotropic between elements
+        rod_pair_mu(cv, ri, ri, sc.mu);
         if (g.s < T(1)) buf.weight[std::size_t(k - first)] += T(1);
         if (g.s > T(0)) buf.weight[std::size_t(k + 1 - first)] += T(1);
         if (g.t < T(1)) buf.weight[std::size_t(kb - first)] += T(1);

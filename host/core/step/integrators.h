@@ -69,10 +69,11 @@ constexpr Terms solve_terms() {
 // Which part of the step's stage list a call runs. Every stage runs on
 // one segment, except the contact stage with rod–rod contact, which couples
 // the rods (partners may be in any segment): then the driver runs the list
-// up to the implicit solve on every segment, the broad phase on the whole
-// batch (when the contact solve reads its lists: self contact), the solve's
-// contacts and the fluid on every segment, the contact stage on the whole
-// batch, and the rest on every segment.
+// up to it on every segment, it on the whole batch, and the rest on every
+// segment. Where the contact solve reads the broad phase's lists (self
+// contact: contact_solve_reads_lists), the list up to it stops after the
+// implicit solve, and the driver runs the broad phase on the whole batch,
+// then the solve's contacts and the fluid on every segment (contact_solve).
 enum class Part { all, before_contact, contact_solve, contact, after_contact };
 
 // Whether the step solves contacts inside the implicit solve: colliders, or
@@ -82,6 +83,12 @@ bool solves_contacts(const RodBatch<T>& b, bool solve) {
   if constexpr (kT.colliders || kT.rod_contact)
     return solve && ((kT.colliders && !b.contact.spec.colliders.empty()) || (kT.rod_contact && b.contact.spec.self));
   return false;
+}
+// Whether the contact solve reads the broad phase's candidate lists (self
+// contact), so that it must wait for the broad phase on the whole batch.
+template <Terms kT, class T>
+bool contact_solve_reads_lists(const RodBatch<T>& b) {
+  return kT.rod_contact && b.contact.spec.self;
 }
 
 // One Position Verlet step on segment r at time t, the stages in order (the
@@ -108,7 +115,8 @@ void verlet_stages(RodBatch<T>& b, T dt, double t, std::int64_t done, bool solve
     if (solves_contacts<kT>(b, solve)) timed(e, thread, Stage::contact_solve, [&] { contact_solve_save(b, e, r); });
     if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
   }
-  if (part == Part::all || part == Part::contact_solve) {
+  const bool late = contact_solve_reads_lists<kT>(b);
+  if (part == Part::all || (part == Part::before_contact && !late) || part == Part::contact_solve) {
     if constexpr (kT.colliders || kT.rod_contact)
       if (solves_contacts<kT>(b, solve))
         timed(e, thread, Stage::contact_solve, [&] { contact_solve_stage<kSolve>(b, dt, frames, e, r, thread); });
@@ -172,13 +180,14 @@ void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, cons
     });
     if constexpr (kCoupled) {
       // the lists the contact solve reads (self contact), at its positions
-      // (the contact stage checks them again at its velocities)
-      const bool contact_solve = detail::solves_contacts<kT>(b, solve);
-      if (contact_solve && b.contact.spec.self) timed(ex, 0, Stage::broad_phase, [&] { update_neighbours(b, dt, ex); });
-      if (contact_solve || b.any_fluid())
+      // (the contact stage checks them again at its velocities), then it
+      if (detail::contact_solve_reads_lists<kT>(b)) {
+        if (detail::solves_contacts<kT>(b, solve))
+          timed(ex, 0, Stage::broad_phase, [&] { update_neighbours(b, dt, ex); });
         for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
           detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, frames.data(), e, r, thread, Part::contact_solve);
         });
+      }
       detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, frames.data(), ex, whole(b), 0, Part::contact);
       for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
         detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, frames.data(), e, r, thread, Part::after_contact);
