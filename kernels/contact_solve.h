@@ -15,7 +15,8 @@
 // point, v_i = J_i u = (1 − s) v_k + s v_{k+1}, with an impulse p_i there:
 //   u⁺ = u_f + A⁻¹ Σ_i J_iᵀ p_i,   v_i = v_{f,i} + Σ_j W_ij p_j,
 //   W_ij = J_i A⁻¹ J_jᵀ (3×3 blocks: the rod's Delassus operator; columns
-//   from the factors, viscous_solve_factored).
+//   from the factors, kernels/viscous_implicit_lanes.h
+//   viscous_solve_factored_lanes).
 // A self contact (element k at s against element k2 > k of the same rod at
 // t, kernels/contact.h pair_geometry; n from the partner's point to k's)
 // acts on the relative velocity of its two points,

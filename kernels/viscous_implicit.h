@@ -49,8 +49,7 @@
 // reads: model, state geometry and velocities  writes: node_v, elem_w of the
 // rod, and the elimination scratch G (36 per cell) and g (6 per cell), indexed
 // by the rod's cell c = 0 … cells−1 (the host passes a per-thread buffer); with
-// `keep`, the factors (FactorView). viscous_solve_factored: reads the kept
-// factors, writes its right-hand sides (the solutions)
+// `keep`, the factors (kKeepValues, below)
 #pragma once
 
 #include <cstddef>
@@ -199,10 +198,11 @@ MANYRODS_HD inline void rigid_shift(int first, int cells, T sign, vec3<T> v0, ve
 // shear, stretch and twist stiffness too (stiff rods, see above; 0 otherwise).
 //
 // `keep` (nullptr: not kept): the factors kept for more right-hand sides
-// (FactorView below, W = 1, from cell 0).
+// (kKeepValues below, W = 1, from cell 0).
 
 // The factors of the elimination kept for more right-hand sides
-// (viscous_solve_factored; the contacts of kernels/contact_solve.h), as the
+// (kernels/viscous_implicit_lanes.h viscous_solve_factored_lanes; the
+// contacts of kernels/contact_solve.h), as the
 // lane kernel (viscous_implicit_lanes with kKeep) and viscous_implicit_rod
 // (with `keep`) leave them: value a of group cell g, lane l, at
 // keep[a][g·W + l], a = kKeepL + lt(i, j) the Cholesky factor of Â_g (lower
@@ -210,14 +210,6 @@ MANYRODS_HD inline void rigid_shift(int first, int cells, T sign, vec3<T> v0, ve
 // unknowns' rows and columns zeroed), kKeepMinv + i the inverse node mass
 // and element inertias (0: fixed unknowns); G_g in the scratch's G[·][g·W + l].
 inline constexpr int kKeepL = 0, kKeepU = 21, kKeepMinv = 48, kKeepValues = 52;
-
-template <class T>
-struct FactorView {
-  const T* keep[kKeepValues] = {};
-  const T* G[36] = {};
-  int W = 1, lane = 0, start = 0;  // the rod's cell c is the group's cell start + c
-  MANYRODS_HD int at(int c) const { return (start + c) * W + lane; }
-};
 
 template <Terms kT, class T>
 MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_h, const ModelView<T>& m,
@@ -364,62 +356,6 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
       s.elem_w[d][k] = delta ? s.elem_w[d][k] + x[3 + d] : x[3 + d];
     }
     for (int i = 0; i < 6; ++i) next[i] = x[i];
-  }
-}
-
-// x ← A⁻¹ x for `cols` right-hand sides at once (a compile-time count) with a rod's kept factors
-// (FactorView): the elimination on other right-hand sides, in the precision
-// of x (X; the factors' T may be narrower). x holds the rod's cell c's
-// unknown i (v, ω) of column j at x[(6c + i)·cols + j]. Cells before `from`
-// must hold zeros (their forward values stay zero: the solve starts there);
-// the back substitution stops at cell `to` (only cells to … cells−1 of the
-// solution are wanted; those before are left as they are).
-// reads: the factors  writes: x
-template <int cols, class T, class X>
-MANYRODS_HD inline void viscous_solve_factored(const FactorView<T>& f, int cells, int from, int to, X* x) {
-  using namespace viscous_detail;
-  // forward: ŷ_c = y_c − U_{c−1}ᵀ g_{c−1} (fixed unknowns 0), g_c = Â_c⁻¹ ŷ_c
-  for (int c = from; c < cells; ++c) {
-    const int at = f.at(c);
-    X* y = x + std::ptrdiff_t(6 * c) * cols;
-    if (c > from) {
-      const int ap = f.at(c - 1);
-      const X* gp = y - 6 * cols;
-      for (int i = 0; i < 6; ++i)
-        for (int r = u_row0(i); r < 6; ++r) {
-          const X u = X(f.keep[kKeepU + ui(r, i)][ap]);
-          for (int j = 0; j < cols; ++j) y[i * cols + j] -= u * gp[r * cols + j];
-        }
-    }
-    // L Lᵀ z = y (L: the lower triangle, 1/L_ii on its diagonal)
-    for (int i = 0; i < 6; ++i) {
-      const bool fixed = f.keep[kKeepMinv + (i < 3 ? 0 : i - 2)][at] == T(0);
-      const X id = X(f.keep[kKeepL + lt(i, i)][at]);
-      for (int j = 0; j < cols; ++j) {
-        X v = fixed ? X(0) : y[i * cols + j];
-        for (int r = 0; r < i; ++r) v -= X(f.keep[kKeepL + lt(i, r)][at]) * y[r * cols + j];
-        y[i * cols + j] = v * id;
-      }
-    }
-    for (int i = 5; i >= 0; --i) {
-      const X id = X(f.keep[kKeepL + lt(i, i)][at]);
-      for (int j = 0; j < cols; ++j) {
-        X v = y[i * cols + j];
-        for (int r = i + 1; r < 6; ++r) v -= X(f.keep[kKeepL + lt(r, i)][at]) * y[r * cols + j];
-        y[i * cols + j] = v * id;
-      }
-    }
-  }
-  // back: u_c = g_c − G_c u_{c+1}
-  for (int c = cells - 2; c >= to; --c) {
-    const int at = f.at(c);
-    X* u = x + std::ptrdiff_t(6 * c) * cols;
-    const X* un = u + 6 * cols;
-    for (int i = 0; i < 6; ++i)
-      for (int k = 0; k < 6; ++k) {
-        const X g = X(f.G[6 * i + k][at]);
-        for (int j = 0; j < cols; ++j) u[i * cols + j] -= g * un[k * cols + j];
-      }
   }
 }
 

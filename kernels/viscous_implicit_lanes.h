@@ -58,7 +58,7 @@
 //   G[i][c·W + l] (i < 36, row-major 6×6) and g[i][c·W + l] (i < 6) for the
 //   group's cell c of lane l, c ≤ max(cells): 42·W·(max(cells) + 1) values
 //   (the host passes a per-thread buffer at least that long); with kKeep,
-//   the factors (kernels/viscous_implicit.h FactorView) into `keep`.
+//   the factors (kernels/viscous_implicit.h kKeepValues) into `keep`.
 #pragma once
 
 #include "kernels/viscous_implicit.h"
@@ -408,7 +408,7 @@ MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell
 // fixed unknowns → identity rows, Â = L Lᵀ, g_c = Â⁻¹ŷ, G_c = Â⁻¹U_c (not for
 // the last cell), stored in the scratch.
 // kKeep: the factors also kept for more right-hand sides (kernels/
-// viscous_implicit.h FactorView: Â_c's factor, U_c, the inverse masses).
+// viscous_implicit.h kKeepValues: Â_c's factor, U_c, the inverse masses).
 template <bool kFirst, bool kLast, int W, class T, bool kKeep = false>
 MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cell<T, W>& cur,
                                        const ImplicitScratchView<T>& sc, T* const* keep = nullptr) {
@@ -552,7 +552,7 @@ MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView
 // (bench/RESULTS.md "Float stiff rods").
 //
 // kKeep: the factors are also kept in `keep` (kKeepValues arrays of W·n
-// values, the layout of FactorView in kernels/viscous_implicit.h) for more
+// values, the layout of kKeepValues in kernels/viscous_implicit.h) for more
 // right-hand sides (the contacts of kernels/contact_solve.h).
 template <Terms kT, int W, bool kKeep = false, class T, class Tc>
 MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cells, T h, const T* stiff_h,
@@ -640,6 +640,94 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
     for (int c = 0; c < all_real; ++c)
       for (int l = 0; l < W; ++l)
         if (c >= start[l]) dst[l][c] = T(scv.g[d][c * W + l]);
+  }
+}
+
+// x ← A⁻¹ x for `cols` right-hand sides of each of the W rods of a lane
+// group at once, with the factors the lane kernel kept (kKeep: keep, and G
+// in the scratch; or viscous_implicit_rod's, W = 1), the elimination of the
+// solve on other right-hand sides,
+//   forward:  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1} (fixed unknowns 0), g_c = Â_c⁻¹ ŷ_c,
+//   back:     u_c = g_c − G_c u_{c+1},
+// with the lanes innermost, so that each load of the factors serves every
+// lane (the contacts' columns of kernels/contact_solve.h, one rod per lane).
+// x holds group cell c's unknown i of column j of lane l at
+// x[((6c + i)·cols + j)·W + l]. A lane whose right-hand side is zero up to a
+// cell keeps exact zeros there, so the solve may start at the first lane's
+// first nonzero cell `from` (cells before it must hold zeros); the back
+// substitution stops at group cell `to`. Each lane's result on its rod's
+// cells is that of solving its rod alone: idle and ghost cells hold zeros
+// (their unknowns are fixed).
+// reads: keep, G (the kept factors)  writes: x
+template <int cols, int W, class Tc, class X>
+MANYRODS_HD inline void viscous_solve_factored_lanes(Tc* const* keep, Tc* const* G, int n, int from, int to, X* x) {
+  using namespace viscous_detail;
+  constexpr int S = cols * W;  // one unknown's columns of every lane
+  for (int c = from; c < n; ++c) {
+    const int at = c * W;
+    X* y = x + std::ptrdiff_t(6 * c) * S;
+    if (c > from) {  // ŷ_c = y_c − U_{c−1}ᵀ g_{c−1}
+      const X* gp = y - 6 * S;
+      for (int i = 0; i < 6; ++i)
+        for (int r = u_row0(i); r < 6; ++r) {
+          const Tc* u = keep[kKeepU + ui(r, i)] + (c - 1) * W;
+          for (int j = 0; j < cols; ++j) {
+            MANYRODS_LANES
+            for (int l = 0; l < W; ++l) y[i * S + j * W + l] -= X(u[l]) * gp[r * S + j * W + l];
+          }
+        }
+    }
+    // L Lᵀ z = y (1/L_ii on L's diagonal); fixed unknowns: 0 (each lane's
+    // terms in the one-rod solve's order)
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 6; ++i) {
+      const Tc* minv = keep[kKeepMinv + (i < 3 ? 0 : i - 2)] + at;
+      const Tc* id = keep[kKeepL + lt(i, i)] + at;
+      for (int j = 0; j < cols; ++j) {
+        X* yi = y + i * S + j * W;
+        MANYRODS_LANES
+        for (int l = 0; l < W; ++l) yi[l] = minv[l] == Tc(0) ? X(0) : yi[l];
+        MANYRODS_UNROLL_ALL
+        for (int r = 0; r < i; ++r) {
+          const Tc* Lir = keep[kKeepL + lt(i, r)] + at;
+          const X* yr = y + r * S + j * W;
+          MANYRODS_LANES
+          for (int l = 0; l < W; ++l) yi[l] -= X(Lir[l]) * yr[l];
+        }
+        MANYRODS_LANES
+        for (int l = 0; l < W; ++l) yi[l] *= X(id[l]);
+      }
+    }
+    MANYRODS_UNROLL_ALL
+    for (int i = 5; i >= 0; --i) {
+      const Tc* id = keep[kKeepL + lt(i, i)] + at;
+      for (int j = 0; j < cols; ++j) {
+        X* yi = y + i * S + j * W;
+        MANYRODS_UNROLL_ALL
+        for (int r = i + 1; r < 6; ++r) {
+          const Tc* Lri = keep[kKeepL + lt(r, i)] + at;
+          const X* yr = y + r * S + j * W;
+          MANYRODS_LANES
+          for (int l = 0; l < W; ++l) yi[l] -= X(Lri[l]) * yr[l];
+        }
+        MANYRODS_LANES
+        for (int l = 0; l < W; ++l) yi[l] *= X(id[l]);
+      }
+    }
+  }
+  // u_c = g_c − G_c u_{c+1}
+  for (int c = n - 2; c >= to; --c) {
+    const int at = c * W;
+    X* u = x + std::ptrdiff_t(6 * c) * S;
+    const X* un = u + 6 * S;
+    for (int i = 0; i < 6; ++i)
+      for (int k = 0; k < 6; ++k) {
+        const Tc* g = G[6 * i + k] + at;
+        for (int j = 0; j < cols; ++j) {
+          MANYRODS_LANES
+          for (int l = 0; l < W; ++l) u[i * S + j * W + l] -= X(g[l]) * un[k * S + j * W + l];
+        }
+      }
   }
 }
 

@@ -27,7 +27,7 @@ enum class Stage {
   kick,            // v += h m⁻¹ F, ω += h J⁻¹ C (kernels/integrate.h)
   fluid,           // drag, buoyancy and wind, around the kick (kernels/fluid.h)
   implicit_solve,  // per-rod backward-Euler solve (kernels/viscous_implicit*.h)
-  contact_solve,   // the solve again with collider contacts, rods that touch one (kernels/contact_solve.h)
+  contact_solve,   // collider and self contacts of the rods the solve steps (kernels/contact_solve.h; partly inside the solve)
   broad_phase,     // rod–rod candidate lists, when they need rebuilding (host/core/step/broad_phase.cpp)
   contact,         // narrow phase: contact impulses and friction after the solve (kernels/contact.h)
   renormalize,     // float frames back to orthonormal (kernels/integrate.h)
@@ -52,6 +52,12 @@ class Profile {
   void add(int thread, Stage s, double seconds) {
     per_thread_[std::size_t(thread)].seconds[std::size_t(s)] += seconds;
     per_thread_[std::size_t(thread)].calls[std::size_t(s)] += 1;
+  }
+  // Time measured inside stage `from` that belongs to stage `to`, a stage
+  // fused into it (the solve's collider contacts): moved, one call of `to`.
+  void move(int thread, Stage from, Stage to, double seconds) {
+    per_thread_[std::size_t(thread)].seconds[std::size_t(from)] -= seconds;
+    add(thread, to, seconds);
   }
   // Summed over the threads.
   StageTimes total() const;

@@ -2,28 +2,37 @@
 // implicit solve (kernels/contact_solve.h; docs/contact.md "Contact inside
 // the implicit solve"):
 //
-//   contact_solve_save    the velocities before the solve (u⁻), per slot
-//   contact_solve_stage   after the solve: each rod the solve steps finds
-//                         its collider and self contacts (with rod contact
-//                         on, from the broad phase's lists, built before
-//                         this stage) at the solve's geometry and,
-//                         if one acts, is solved again from u⁻ keeping its
-//                         factors, its contacts' impulses are solved with
-//                         its Delassus operator and it takes them through
-//                         the factors
+//   contact_solve_save           the velocities before the solve (u⁻), per slot
+//   viscous_update_with_contacts the implicit solve with the collider
+//                                contacts of its lane groups' rods: each
+//                                group solved with its factors kept, its
+//                                rods' contacts found at once and, where one
+//                                acts, solved through the factors, the
+//                                group's rods together (one per SIMD lane)
+//   contact_solve_stage          after the solve, the rest: each rod the solve
+//                                steps that it did not take (a driven root,
+//                                prescribed velocities, a float batch's stiff
+//                                rod, a partitioned long rod; every rod with
+//                                self contact, whose lists the broad phase
+//                                builds after the solve) finds its collider
+//                                and self contacts at the solve's geometry
+//                                and, if one acts, is solved again from u⁻
+//                                keeping its factors, and its contacts'
+//                                impulses are solved with its Delassus
+//                                operator and taken through the factors
 //
 // A rod no collider reaches pays one pass over its elements. A rod with a
 // reference hold (a driven root) is solved relative to the hold's rigid
 // motion, as the solve does (host/core/step/implicit_solve.h shift_hold);
 // the contacts' response leaves that motion alone, so they are solved in
-// the lab frame. Each rod is solved on its own, by the scalar kernel, in a
-// fixed order of its contacts: the result does not depend on the thread
-// count.
+// the lab frame. Each rod's contacts are solved in a fixed order, its own
+// arithmetic in its lane: the result does not depend on the thread count.
 #pragma once
 
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <stdexcept>
 
@@ -48,18 +57,21 @@ void contact_solve_save(RodBatch<T>& b, const Exec& ex, const Segment& r) {
 namespace detail {
 
 // Rod `ri`'s collider contacts and (ContactView::self_solved) self contacts
-// in range at the solve's geometry, into buf.contacts (kernels/
+// in range at the solve's geometry, into buf.contacts (its first slot and
+// cells into buf.first, buf.cells; kernels/
 // contact_solve.h): the ranges and geometry of the stage's
 // (kernels/contact.h element_contacts), each self pair once, from its lower
 // element's list. Returns whether one acts on its own at the velocities the
 // first solve gave (if none does, none acts).
 template <class T>
-bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf) {
+bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, RodContacts<T>& buf) {
   using namespace contact_detail;
   const ModelView<T> m = b.model_view();
   const ConstStateView<T> st = std::as_const(b).state_view();
   const RodInfo& rod = b.rods[std::size_t(ri)];
   const int first = rod.offset + 1, cells = rod.elements + 1;
+  buf.first = first;
+  buf.cells = cells;
   buf.contacts.clear();
   buf.weight.assign(std::size_t(cells), T(0));  // the contacts on each node
   const T reach = h * (T(1) + T(2) * cv.damping_ratio / cv.hardness);
@@ -149,201 +161,273 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   return any;
 }
 
-// Rod ri's contacts (buf.contacts) through its factored system f: their
-// Delassus operator, their impulses by projected block Gauss–Seidel
-// (kernels/contact_solve.h), the rod's response to them from the factors
-// (added to its velocities, the free solve's on entry), their work into
-// contact.work.
-template <class Tf, class T>
-void contacts_through_factors(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf,
-                              const FactorView<Tf>& f) {
+// The contacts of the rods of one lane group (their RodContacts in
+// buf.lanes, filled by find_solve_contacts; lanes[l].rod < 0: none acts)
+// through the group's kept factors (keep, and G in the scratch; group cell
+// c of lane l: kernels/viscous_implicit_lanes.h viscous_solve_factored_lanes,
+// rod cell c of lane l at group cell lanes[l].start + c): each rod's
+// Delassus operator over its contacts in the solve, their impulses by
+// projected block Gauss–Seidel (kernels/contact_solve.h), the rod's
+// response to them from the factors (added to its velocities, the free
+// solve's on entry), their work into contact.work. The rods are independent;
+// their columns and responses are solved together, one rod per lane, so
+// that each load of the factors serves every lane. A rod's result is that
+// of solving it alone (each lane's arithmetic is the one-rod solve's).
+template <int Wg, class Tc, class T>
+void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf,
+                                    Tc* const* keep, Tc* const* G, int n) {
   const StateView<T> s = b.state_view();
-  const RodInfo& rod = b.rods[std::size_t(ri)];
-  const int first = rod.offset + 1, cells = rod.elements + 1;
-  std::vector<SolveContact<T>>& cs = buf.contacts;
-  const int nc = int(cs.size());
-  int low = cells;
-  for (const SolveContact<T>& c : cs) low = std::min(low, c.k - first);
-  buf.x.resize(std::size_t(18) * std::size_t(cells));
-  double* const x = buf.x.data();
-  // The contacts in the solve (in: those that act on their own at the free
-  // velocities, then any the others' impulses make act) are buf.members, in
-  // the order they joined; W over them only: W_ij = J_i A⁻¹ J_jᵀ of members
-  // at places a = place[i], b = place[j] is the block at 9 (a cap + b),
-  // row-major. A contact in range that never acts costs no column and no
-  // row (a coiled rod has hundreds of near self pairs in range, a tenth of
-  // them acting).
-  std::vector<int>& members = buf.members;
-  std::vector<int>& place = buf.place;
-  members.clear();
-  buf.joining.clear();
-  place.assign(std::size_t(nc), -1);
-  int cap = 0;
-  auto block = [&](int i, int j) {
-    return buf.delassus.data() + 9 * (std::ptrdiff_t(place[std::size_t(i)]) * cap + place[std::size_t(j)]);
+  RodContacts<T>* const lanes = buf.lanes.data();
+  // The contacts in the solve of a rod (in: those that act on their own at
+  // the free velocities, then any the others' impulses make act) are its
+  // `members`, in the order they joined; W over them only: W_ij = J_i A⁻¹ J_jᵀ
+  // of members at places a = place[i], b = place[j] is the block at
+  // 9 (a cap + b), row-major. A contact in range that never acts costs no
+  // column and no row (a coiled rod has hundreds of near self pairs in
+  // range, a tenth of them acting).
+  auto block = [](RodContacts<T>& rc, int i, int j) {
+    return rc.delassus.data() + 9 * (std::ptrdiff_t(rc.place[std::size_t(i)]) * rc.cap + rc.place[std::size_t(j)]);
   };
-  auto reserve = [&](int need) {  // room for `need` members (grown by doubling, kept across rods)
-    if (need <= cap) return;
-    const int grown = std::max({need, 2 * cap, 16});
-    if (buf.spare.size() < std::size_t(9) * std::size_t(grown) * std::size_t(grown))
-      buf.spare.resize(std::size_t(9) * std::size_t(grown) * std::size_t(grown));
-    const int in = int(members.size());
+  auto reserve = [](RodContacts<T>& rc, int need) {  // room for `need` members (grown by doubling, kept across rods)
+    if (need <= rc.cap) return;
+    const int grown = std::max({need, 2 * rc.cap, 16});
+    if (rc.spare.size() < std::size_t(9) * std::size_t(grown) * std::size_t(grown))
+      rc.spare.resize(std::size_t(9) * std::size_t(grown) * std::size_t(grown));
+    const int in = int(rc.members.size());
     for (int r = 0; r < in; ++r)
-      std::copy(buf.delassus.data() + 9 * std::ptrdiff_t(r) * cap, buf.delassus.data() + 9 * (std::ptrdiff_t(r) * cap + in),
-                buf.spare.data() + 9 * std::ptrdiff_t(r) * grown);
-    std::swap(buf.delassus, buf.spare);
-    cap = grown;
+      std::copy(rc.delassus.data() + 9 * std::ptrdiff_t(r) * rc.cap,
+                rc.delassus.data() + 9 * (std::ptrdiff_t(r) * rc.cap + in),
+                rc.spare.data() + 9 * std::ptrdiff_t(r) * grown);
+    std::swap(rc.delassus, rc.spare);
+    rc.cap = grown;
   };
-  // J_i of the solved columns x (cell c's unknown d of column e at
-  // x[3 (6c + d) + e]): 3×3, row-major
-  auto project = [&](const SolveContact<T>& c, T* out) {
-    const double* x0 = x + 18 * (c.k - first);
-    for (int e = 0; e < 9; ++e) out[e] = T((1 - double(c.s)) * x0[e] + double(c.s) * x0[18 + e]);
-    if (c.k2 >= 0) {
-      const double* x2 = x + 18 * (c.k2 - first);
-      for (int e = 0; e < 9; ++e) out[e] -= T((1 - double(c.t)) * x2[e] + double(c.t) * x2[18 + e]);
-    }
-  };
-  // contact j joins: its three columns solved together, back to the first
-  // contact's cell; its row is its column's transpose (W is symmetric)
-  auto join = [&](int j) {
-    reserve(int(members.size()) + 1);
-    place[std::size_t(j)] = int(members.size());
-    members.push_back(j);
-    cs[std::size_t(j)].in = true;
-    std::fill(x + 18 * low, x + 18 * cells, 0.0);
-    const SolveContact<T>& cj = cs[std::size_t(j)];
-    const int kj = cj.k - first;  // (a self contact's partner k2 > k: the solve still starts at k)
-    for (int d = 0; d < 3; ++d) {
-      x[3 * (6 * kj + d) + d] = double(T(1) - cj.s);
-      x[3 * (6 * (kj + 1) + d) + d] = double(cj.s);
-      if (cj.k2 >= 0) {
-        x[3 * (6 * (cj.k2 - first) + d) + d] = -double(T(1) - cj.t);
-        x[3 * (6 * (cj.k2 + 1 - first) + d) + d] = -double(cj.t);
-      }
-    }
-    viscous_solve_factored<3>(f, cells, kj, low, x);
-    for (const int i : members) {
-      project(cs[std::size_t(i)], block(i, j));
-      if (i == j) {  // symmetric in exact arithmetic
-        T* w = block(j, j);
-        for (int e = 0; e < 3; ++e)
-          for (int d = e + 1; d < 3; ++d) w[3 * e + d] = w[3 * d + e] = T(0.5) * (w[3 * e + d] + w[3 * d + e]);
-      } else {
-        const T* wij = block(i, j);
-        T* wji = block(j, i);
-        for (int e = 0; e < 3; ++e)
-          for (int d = 0; d < 3; ++d) wji[3 * d + e] = wij[3 * e + d];
-      }
-    }
-  };
-  auto mat = [&](int i, int j) {
-    mat3<T> r;
-    const T* w = block(i, j);
-    for (int e = 0; e < 9; ++e) r.m[e] = w[e];
-    return r;
-  };
+  // x: 3 columns per lane (a joining contact's) or 1 (the response), lane
+  // innermost (viscous_solve_factored_lanes); value (cell c, unknown i,
+  // column j, lane l) of the 3-column x at ((6c + i)·3 + j)·Wg + l
+  buf.x.resize(std::size_t(18) * std::size_t(Wg) * std::size_t(n));
+  double* const x = buf.x.data();
+  auto x3 = [&](int l, int c, int i, int j) -> double& { return x[((6 * std::ptrdiff_t(c) + i) * 3 + j) * Wg + l]; };
+  auto x1 = [&](int l, int c, int i) -> double& { return x[(6 * std::ptrdiff_t(c) + i) * Wg + l]; };
   const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
   auto acts = [&](const SolveContact<T>& c, vec3<T> v) {  // (S1): λ > 0 with no impulse of its own
     return c.gap + h * (b_law / (cv.hardness * cv.hardness)) * dot(c.n, v - c.vp) < T(0);
   };
-  T scale = T(0);
-  for (SolveContact<T>& c : cs) {
-    c.p = vec3<T>{T(0), T(0), T(0)};
-    c.v = point_velocity(c, s.node_v);  // the free solve's (kept for those not in the solve)
-    c.in = false;
-    // its approach speed and, if it overlaps, the normal law's push-out
-    // speed (a contact in range but apart adds no speed of its own)
-    scale = std::max(scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * std::max(T(0), -c.gap) / (h * b_law));
-  }
-  for (int j = 0; j < nc; ++j)
-    if (acts(cs[std::size_t(j)], cs[std::size_t(j)].v)) join(j);
-  // the rod's response to the impulses, Δu = A⁻¹ Σ J_iᵀ p_i, into x (6 per cell)
-  auto response = [&]() {
-    std::fill(x, x + 6 * cells, 0.0);
-    for (const int i : members) {
-      const SolveContact<T>& c = cs[std::size_t(i)];
-      const double p3[3] = {double(c.p.x), double(c.p.y), double(c.p.z)};
-      for (int d = 0; d < 3; ++d) {
-        x[6 * (c.k - first) + d] += (1 - double(c.s)) * p3[d];
-        x[6 * (c.k + 1 - first) + d] += double(c.s) * p3[d];
-        if (c.k2 >= 0) {
-          x[6 * (c.k2 - first) + d] -= (1 - double(c.t)) * p3[d];
-          x[6 * (c.k2 + 1 - first) + d] -= double(c.t) * p3[d];
+  // the node cells (group cells) and weights of a contact's point, its
+  // partner's for a self contact (weight −)
+  auto points = [](const RodContacts<T>& rc, const SolveContact<T>& c, int (&cell)[4], double (&w)[4]) {
+    const int base = rc.start - rc.first;
+    cell[0] = base + c.k, cell[1] = base + c.k + 1, w[0] = 1 - double(c.s), w[1] = double(c.s);
+    if (c.k2 >= 0) {
+      cell[2] = base + c.k2, cell[3] = base + c.k2 + 1, w[2] = -(1 - double(c.t)), w[3] = -double(c.t);
+      return 4;
+    }
+    return 2;
+  };
+  // J_i of lane l's solved columns: 3×3, row-major
+  auto project = [&](int l, const RodContacts<T>& rc, const SolveContact<T>& c, T* out) {
+    int cell[4];
+    double w[4];
+    const int np = points(rc, c, cell, w);
+    for (int d = 0; d < 3; ++d)
+      for (int e = 0; e < 3; ++e) {
+        double v = 0;
+        for (int q = 0; q < np; ++q) v += w[q] * x3(l, cell[q], d, e);
+        out[3 * d + e] = T(v);
+      }
+  };
+  // the lanes' next joining contacts (rc.joining[rc.next]), one per lane,
+  // their three columns solved together; each row is its column's
+  // transpose (W is symmetric)
+  auto join_round = [&]() {
+    int from = n, to = n, any = 0;
+    for (int l = 0; l < Wg; ++l) {
+      RodContacts<T>& rc = lanes[l];
+      if (rc.rod < 0 || rc.next >= int(rc.joining.size())) continue;
+      const SolveContact<T>& cj = rc.contacts[std::size_t(rc.joining[std::size_t(rc.next)])];
+      from = std::min(from, rc.start + cj.k - rc.first);
+      to = std::min(to, rc.start + rc.low);
+      any = 1;
+    }
+    if (!any) return false;
+    std::fill(x + std::ptrdiff_t(18) * Wg * std::min(from, to), x + std::ptrdiff_t(18) * Wg * n, 0.0);
+    for (int l = 0; l < Wg; ++l) {
+      RodContacts<T>& rc = lanes[l];
+      if (rc.rod < 0 || rc.next >= int(rc.joining.size())) continue;
+      int cell[4];
+      double w[4];
+      const int np = points(rc, rc.contacts[std::size_t(rc.joining[std::size_t(rc.next)])], cell, w);
+      for (int q = 0; q < np; ++q)
+        for (int d = 0; d < 3; ++d) x3(l, cell[q], d, d) += w[q];
+    }
+    viscous_solve_factored_lanes<3, Wg>(keep, G, n, from, to, x);
+    for (int l = 0; l < Wg; ++l) {
+      RodContacts<T>& rc = lanes[l];
+      if (rc.rod < 0 || rc.next >= int(rc.joining.size())) continue;
+      const int j = rc.joining[std::size_t(rc.next++)];
+      reserve(rc, int(rc.members.size()) + 1);
+      rc.place[std::size_t(j)] = int(rc.members.size());
+      rc.members.push_back(j);
+      rc.contacts[std::size_t(j)].in = true;
+      for (const int i : rc.members) {
+        project(l, rc, rc.contacts[std::size_t(i)], block(rc, i, j));
+        if (i == j) {  // symmetric in exact arithmetic
+          T* wjj = block(rc, j, j);
+          for (int e = 0; e < 3; ++e)
+            for (int d = e + 1; d < 3; ++d) wjj[3 * e + d] = wjj[3 * d + e] = T(0.5) * (wjj[3 * e + d] + wjj[3 * d + e]);
+        } else {
+          const T* wij = block(rc, i, j);
+          T* wji = block(rc, j, i);
+          for (int e = 0; e < 3; ++e)
+            for (int d = 0; d < 3; ++d) wji[3 * d + e] = wij[3 * e + d];
         }
       }
     }
-    viscous_solve_factored<1>(f, cells, low, 0, x);
+    return true;
   };
-  // projected block Gauss–Seidel over the contacts in the solve, in their
-  // order, until a sweep moves no contact point's velocity by more than the
-  // tolerance of the contacts' velocity scale (the impulses' split between
-  // contacts that a stiff rod joins rigidly may converge far more slowly:
-  // it moves nothing), or until the sweeps cycle (their largest move has
-  // not halved in kContactStallSweeps sweeps: kernels/contact_solve.h);
-  // then any contact that the impulses make act joins (its velocity from
-  // the rod's response), and the sweeps go on
-  bool added = !members.empty(), fresh = false;  // fresh: x holds the response to the impulses as they stand
-  while (added) {
+  auto mat = [&](RodContacts<T>& rc, int i, int j) {
+    mat3<T> r;
+    const T* w = block(rc, i, j);
+    for (int e = 0; e < 9; ++e) r.m[e] = w[e];
+    return r;
+  };
+  // the rods' responses to their impulses, Δu = A⁻¹ Σ J_iᵀ p_i, into x
+  // (1 column), for the lanes in `open`
+  auto response = [&]() {
+    int from = n, to = n;
+    for (int l = 0; l < Wg; ++l)
+      if (lanes[l].rod >= 0 && lanes[l].open) {
+        from = std::min(from, lanes[l].start + lanes[l].low);
+        to = std::min(to, lanes[l].start);
+      }
+    std::fill(x + std::ptrdiff_t(6) * Wg * to, x + std::ptrdiff_t(6) * Wg * n, 0.0);
+    for (int l = 0; l < Wg; ++l) {
+      RodContacts<T>& rc = lanes[l];
+      if (rc.rod < 0 || !rc.open) continue;
+      for (const int i : rc.members) {
+        const SolveContact<T>& c = rc.contacts[std::size_t(i)];
+        const double p3[3] = {double(c.p.x), double(c.p.y), double(c.p.z)};
+        int cell[4];
+        double w[4];
+        const int np = points(rc, c, cell, w);
+        for (int q = 0; q < np; ++q)
+          for (int d = 0; d < 3; ++d) x1(l, cell[q], d) += w[q] * p3[d];
+      }
+    }
+    viscous_solve_factored_lanes<1, Wg>(keep, G, n, from, to, x);
+  };
+  // projected block Gauss–Seidel over a rod's contacts in the solve, in
+  // their order, until a sweep moves no contact point's velocity by more
+  // than the tolerance of the contacts' velocity scale (the impulses' split
+  // between contacts that a stiff rod joins rigidly may converge far more
+  // slowly: it moves nothing), or until the sweeps cycle (their largest move
+  // has not halved in kContactStallSweeps sweeps: kernels/contact_solve.h)
+  auto sweeps = [&](RodContacts<T>& rc) {
+    const int nc = int(rc.contacts.size());
     T best = T(0);  // the smallest largest move so far, halving
     int best_at = 0;
     for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep) {
       T moved = T(0);
       for (int i = 0; i < nc; ++i) {
-        SolveContact<T>& c = cs[std::size_t(i)];
+        SolveContact<T>& c = rc.contacts[std::size_t(i)];
         if (!c.in) continue;
-        const mat3<T> wii = mat(i, i);
+        const mat3<T> wii = mat(rc, i, i);
         const vec3<T> v0 = c.v;
         const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
         const vec3<T> dp = p - c.p;
         if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
-          for (const int j : members) cs[std::size_t(j)].v = cs[std::size_t(j)].v + mul(mat(j, i), dp);
+          for (const int j : rc.members)
+            rc.contacts[std::size_t(j)].v = rc.contacts[std::size_t(j)].v + mul(mat(rc, j, i), dp);
         c.p = p;
         moved = std::max(moved, norm(c.v - v0));
       }
-      if (!(moved > kContactSweepTolerance<T> * scale)) break;
+      if (!(moved > kContactSweepTolerance<T> * rc.scale)) break;
       if (sweep == 0 || moved < T(0.5) * best) {
         best = moved;
         best_at = sweep;
       }
       if (sweep - best_at >= kContactStallSweeps) break;
     }
-    if (int(members.size()) == nc) break;
-    response();
-    fresh = true;
-    for (int j = 0; j < nc; ++j) {
-      SolveContact<T>& c = cs[std::size_t(j)];
-      if (c.in) continue;
-      const double* x0 = x + 6 * (c.k - first);
-      vec3<T> dv{T((1 - double(c.s)) * x0[0] + double(c.s) * x0[6]), T((1 - double(c.s)) * x0[1] + double(c.s) * x0[7]),
-                 T((1 - double(c.s)) * x0[2] + double(c.s) * x0[8])};
-      if (c.k2 >= 0) {
-        const double* x2 = x + 6 * (c.k2 - first);
-        dv = dv - vec3<T>{T((1 - double(c.t)) * x2[0] + double(c.t) * x2[6]),
-                          T((1 - double(c.t)) * x2[1] + double(c.t) * x2[7]),
-                          T((1 - double(c.t)) * x2[2] + double(c.t) * x2[8])};
+  };
+  // the rod's response into its velocities: u⁺ = u_f + A⁻¹ Σ J_iᵀ p_i; the
+  // work of the impulses, P·(v_n + v_{n+1})/2 at the point (a self contact:
+  // on both of its points, with the relative velocity)
+  auto finish = [&](int l) {
+    RodContacts<T>& rc = lanes[l];
+    for (int c = 0; c < rc.cells; ++c)
+      for (int d = 0; d < 3; ++d) {
+        s.node_v[d][rc.first + c] += T(x1(l, rc.start + c, d));
+        s.elem_w[d][rc.first + c] += T(x1(l, rc.start + c, 3 + d));
       }
-      if (!acts(c, c.v + dv)) continue;
-      c.v = c.v + dv;
-      buf.joining.push_back(j);
+    for (const SolveContact<T>& c : rc.contacts)
+      if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0))
+        cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
+    rc.open = false;
+  };
+  // start: every rod's contacts that act at the free velocities join
+  for (int l = 0; l < Wg; ++l) {
+    RodContacts<T>& rc = lanes[l];
+    if (rc.rod < 0) continue;
+    const int nc = int(rc.contacts.size());
+    rc.low = rc.cells;
+    for (const SolveContact<T>& c : rc.contacts) rc.low = std::min(rc.low, c.k - rc.first);
+    rc.members.clear();
+    rc.joining.clear();
+    rc.next = 0;
+    rc.cap = 0;
+    rc.place.assign(std::size_t(nc), -1);
+    rc.scale = T(0);
+    for (SolveContact<T>& c : rc.contacts) {
+      c.p = vec3<T>{T(0), T(0), T(0)};
+      c.v = point_velocity(c, s.node_v);  // the free solve's (kept for those not in the solve)
+      c.in = false;
+      // its approach speed and, if it overlaps, the normal law's push-out
+      // speed (a contact in range but apart adds no speed of its own)
+      rc.scale = std::max(rc.scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * std::max(T(0), -c.gap) / (h * b_law));
     }
-    for (const int j : buf.joining) join(j);  // (after every check: a column overwrites x)
-    added = !buf.joining.empty();
-    fresh = fresh && !added;
-    buf.joining.clear();
+    for (int j = 0; j < nc; ++j)
+      if (acts(rc.contacts[std::size_t(j)], rc.contacts[std::size_t(j)].v)) rc.joining.push_back(j);
+    rc.open = !rc.joining.empty();
   }
-  // the rod's response: u⁺ = u_f + A⁻¹ Σ J_iᵀ p_i
-  if (!fresh) response();
-  for (int c = 0; c < cells; ++c)
-    for (int d = 0; d < 3; ++d) {
-      s.node_v[d][first + c] += T(x[6 * c + d]);
-      s.elem_w[d][first + c] += T(x[6 * c + 3 + d]);
+  // rounds: the joining contacts' columns; each open rod's sweeps; the
+  // responses; then any contact that a rod's impulses make act joins (its
+  // velocity from the response) and that rod's sweeps go on; a rod with
+  // none joining is done, with this response
+  for (;;) {
+    while (join_round()) {
     }
-  // the work of the impulses, P·(v_n + v_{n+1})/2 at the point (a self
-  // contact: on both of its points, with the relative velocity)
-  for (const SolveContact<T>& c : cs)
-    if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0))
-      cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
+    bool open = false;
+    for (int l = 0; l < Wg; ++l) {
+      RodContacts<T>& rc = lanes[l];
+      if (rc.rod < 0 || !rc.open) continue;
+      rc.joining.clear();
+      rc.next = 0;
+      sweeps(rc);
+      open = true;
+    }
+    if (!open) break;
+    response();
+    for (int l = 0; l < Wg; ++l) {
+      RodContacts<T>& rc = lanes[l];
+      if (rc.rod < 0 || !rc.open) continue;
+      const int nc = int(rc.contacts.size());
+      if (int(rc.members.size()) < nc)
+        for (int j = 0; j < nc; ++j) {
+          SolveContact<T>& c = rc.contacts[std::size_t(j)];
+          if (c.in) continue;
+          int cell[4];
+          double w[4];
+          const int np = points(rc, c, cell, w);
+          double dv[3] = {0, 0, 0};
+          for (int q = 0; q < np; ++q)
+            for (int d = 0; d < 3; ++d) dv[d] += w[q] * x1(l, cell[q], d);
+          const vec3<T> v = c.v + vec3<T>{T(dv[0]), T(dv[1]), T(dv[2])};
+          if (!acts(c, v)) continue;
+          c.v = v;
+          rc.joining.push_back(j);
+        }
+      if (rc.joining.empty()) finish(l);
+    }
+  }
 }
 
 // Kept factors' pointers into buf (kKeepValues arrays of n values).
@@ -351,19 +435,6 @@ template <class Tf>
 void keep_pointers(std::vector<Tf>& buf, int n, Tf* (&kp)[kKeepValues]) {
   buf.resize(std::size_t(kKeepValues) * std::size_t(n));
   for (int a = 0; a < kKeepValues; ++a) kp[a] = buf.data() + std::size_t(a) * std::size_t(n);
-}
-
-// Lane `lane` of a group of W lanes, its rod's cell c the group's cell start + c.
-template <class Tf>
-FactorView<Tf> factor_view(Tf* const (&kp)[kKeepValues], const ImplicitScratchView<Tf>& sc, int W, int lane,
-                           int start) {
-  FactorView<Tf> f;
-  for (int a = 0; a < kKeepValues; ++a) f.keep[a] = kp[a];
-  for (int i = 0; i < 36; ++i) f.G[i] = sc.G[i];
-  f.W = W;
-  f.lane = lane;
-  f.start = start;
-  return f;
 }
 
 // Rod ri's reference hold in segment r (its driven root), or −1.
@@ -384,6 +455,17 @@ void restore_pre_solve(RodBatch<T>& b, int ri, const ContactView<T>& cv) {
     store3(s.node_v, rod.offset + 1 + c, load3(cv.v_solve, rod.offset + 1 + c));
     store3(s.elem_w, rod.offset + 1 + c, load3(cv.w_solve, rod.offset + 1 + c));
   }
+}
+
+// A lane group solved with its factors kept: one compiled copy for the
+// solve's fused contacts (ContactsAfterGroup) and the stage's second solve
+// (solve_group_with_contacts), so that a rod's velocities do not depend on
+// which of them solved it (two inlined copies may contract a·b + c into FMAs
+// differently).
+template <Terms kKernel, int W, class Tc, class T>
+MANYRODS_NOINLINE void solve_lanes_kept(const int* first, const int* cells, T h, const T* stiff_h, const ModelView<T>& m,
+                                        const StateView<T>& s, const ImplicitScratchView<Tc>& sc, Tc* const* keep) {
+  viscous_implicit_lanes<kKernel, W, true>(first, cells, h, stiff_h, m, s, sc, keep);
 }
 
 // Rods rods[0 … count) (count ≤ W, each with a contact that acts)
@@ -414,12 +496,17 @@ void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, 
   }
   Tc* kp[kKeepValues];
   keep_pointers(keep, W * n, kp);
-  viscous_implicit_lanes<kKernel, W, true>(first, cells, h, stiff_h, m, s, sc, kp);
+  solve_lanes_kept<kKernel, W>(first, cells, h, stiff_h, m, s, sc, kp);
   for (int j = 0; j < count; ++j)
     if (hold[j] >= 0) shift_hold(b, hold[j], T(1));
-  for (int j = 0; j < count; ++j)
-    if (find_solve_contacts(b, rods[j], h, cv, buf))
-      contacts_through_factors(b, rods[j], h, cv, buf, factor_view(kp, sc, W, j, n - cells[j]));
+  RodContacts<T>* lanes = buf.lanes_for(W);
+  bool any = false;
+  for (int j = 0; j < W; ++j) {
+    lanes[j].rod = j < count && find_solve_contacts(b, rods[j], h, cv, lanes[j]) ? rods[j] : -1;
+    lanes[j].start = n - cells[j];
+    any = any || lanes[j].rod >= 0;
+  }
+  if (any) group_contacts_through_factors<W>(b, h, cv, buf, kp, sc.G, n);
 }
 
 // Rod ri with prescribed velocities (the scalar kernel, as the solve takes
@@ -437,10 +524,89 @@ void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactVi
   viscous_implicit_rod<kKernel>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), b.model_view(),
                                 b.state_view(), sc, kp);
   if (hold >= 0) shift_hold(b, hold, T(1));
-  if (find_solve_contacts(b, ri, h, cv, buf)) contacts_through_factors(b, ri, h, cv, buf, factor_view(kp, sc, 1, 0, 0));
+  RodContacts<T>& one = buf.lanes_for(1)[0];
+  one.rod = find_solve_contacts(b, ri, h, cv, one) ? ri : -1;
+  one.start = 0;  // (the scalar kernel's factors: the rod's cells from 0, no ghost)
+  if (one.rod >= 0) group_contacts_through_factors<1>(b, h, cv, buf, kp, sc.G, rod.elements + 1);
 }
 
+// The collider contacts fused into the implicit solve (its Hook,
+// host/core/step/implicit_solve.h solve_segment): each lane group is solved
+// with its factors kept, then each of its rods whose contacts the solve
+// meets (ContactView::colliders_in_solve) and that has no reference hold
+// (the solve runs it relative to the hold's motion) finds its contacts and,
+// if one acts, takes them through its lane's factors, at once: no second
+// solve, no second search. Those rods are marked in StepWorkspace::
+// contact_fused; the stage after the solve takes the others (a reference
+// hold, prescribed velocities, a float batch's stiff rod solved in double, a
+// long rod's partitioned solve, the scalar kernel) as before. A rod's
+// result is the stage's to the bit: the same kept solve (solve_lanes_kept),
+// the same contacts, in the same order.
+// With a profile, the contacts' time moves from the implicit_solve stage to
+// contact_solve, as thread-seconds of the thread that ran them.
+template <Terms kKernel, class T>
+struct ContactsAfterGroup {
+  RodBatch<T>& b;
+  T h;
+  const ContactView<T>& cv;
+  const Segment& r;
+  Profile* profile;
+
+  template <int Wg, class Tc>
+  void group(const int* first, const int* cells, const T* stiff_h, const int* rods, int count,
+             const ImplicitScratchView<Tc>& sc, int thread) {
+    ContactSolveBuffer<T>& buf = b.workspace->contact_solve[std::size_t(thread)];
+    int n = 0;
+    for (int j = 0; j < Wg; ++j) n = std::max(n, cells[j]);
+    n += 1;  // the root ghost cell
+    Tc* kp[kKeepValues];
+    keep_pointers(buf.keep, Wg * n, kp);
+    solve_lanes_kept<kKernel, Wg>(first, cells, h, stiff_h, b.model_view(), b.state_view(), sc, kp);
+    std::chrono::steady_clock::time_point t0;
+    if (profile) t0 = std::chrono::steady_clock::now();
+    char* fused = b.workspace->contact_fused.data();
+    const bool holds = r.driven_end > r.driven_begin;
+    RodContacts<T>* lanes = buf.lanes_for(Wg);
+    bool any = false;
+    for (int j = 0; j < Wg; ++j) {
+      lanes[j].rod = -1;
+      lanes[j].start = n - cells[j];
+      const int ri = rods[j];
+      if (j >= count || !cv.colliders_in_solve(ri) || (holds && reference_hold(b, r, ri) >= 0)) continue;
+      fused[ri] = 1;
+      if (find_solve_contacts(b, ri, h, cv, lanes[j])) lanes[j].rod = ri;
+      any = any || lanes[j].rod >= 0;
+    }
+    if (any) group_contacts_through_factors<Wg>(b, h, cv, buf, kp, sc.G, n);
+    if (profile) {
+      const std::chrono::duration<double> d = std::chrono::steady_clock::now() - t0;
+      profile->move(thread, Stage::implicit_solve, Stage::contact_solve, d.count());
+    }
+  }
+};
+
 }  // namespace detail
+
+// The implicit stage (host/core/step/implicit_solve.h viscous_update) with
+// the collider contacts of the rods it solves in lane groups fused into it
+// (detail::ContactsAfterGroup); contact_solve_stage after it takes the
+// rest. Only where the contact solve does not read the broad phase's lists
+// (no self contact in the solve: they are built after the solve).
+// reads: model, state, contact data, colliders  writes: state.node_v, elem_w,
+// contact.work, the workspace's contact_fused
+template <Terms kSolve, class T>
+void viscous_update_with_contacts(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex,
+                                  const Segment& r, int thread) {
+  constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
+  const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt, kSolve.rod_contact);
+  if (cv.collider_count == 0 || cv.self_in_solve != 0 || b.workspace->contact_solve.size() < std::size_t(std::max(ex.threads, thread + 1)) ||
+      b.workspace->contact_fused.size() < b.rods.size()) {
+    detail::solve_segment<kKernel, 0>(b, h, ex, r, thread);
+    return;
+  }
+  detail::ContactsAfterGroup<kKernel, T> hook{b, h, cv, r, ex.profile};
+  detail::solve_segment<kKernel, 0>(b, h, ex, r, thread, &hook);
+}
 
 // The stage on the rods of segment r that the solve steps (kSolve: the
 // solve's Terms), after the solve: which rods have a collider or self
@@ -475,8 +641,14 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
   ContactSolveBuffer<T>& own = bufs[std::size_t(thread)];
   own.kind.assign(std::size_t(r.rod_end - r.rod_begin), 0);
   const int room = b.workspace->visc_cells;
+  char* fused = b.workspace->contact_fused.size() >= b.rods.size() ? b.workspace->contact_fused.data() : nullptr;
   auto which = [&](int ri, int t) {
-    if (!cv.colliders_in_solve(ri) || !detail::find_solve_contacts(b, ri, h, cv, bufs[std::size_t(t)])) return;
+    if (fused && fused[ri]) {  // done in the solve (viscous_update_with_contacts)
+      fused[ri] = 0;
+      return;
+    }
+    if (!cv.colliders_in_solve(ri) || !detail::find_solve_contacts(b, ri, h, cv, bufs[std::size_t(t)].lanes_for(1)[0]))
+      return;
     const RodInfo& rod = b.rods[std::size_t(ri)];
     const bool wide = sizeof(T) < sizeof(double) && rod.stiff_implicit && ex.stiff_solve_in_double;
     const bool fits = (wide ? kWide : W) * (rod.elements + 2) <= room;

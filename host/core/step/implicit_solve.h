@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <functional>
 #include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include "host/core/step/implicit_plan.h"
@@ -86,8 +87,14 @@ constexpr Terms solve_kernel_terms(Terms t) {
   return s;
 }
 
-template <Terms kT, int kLanes, class T>
-void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread);
+// A stage fused into the solve after each lane group (the collider contacts
+// of host/core/step/contact_solve.h ContactsAfterGroup): `Hook::group<Wg>`
+// solves the group itself, keeping its factors, and takes its rods' contacts
+// through them. NoSolveHook: none.
+struct NoSolveHook {};
+
+template <Terms kT, int kLanes, class T, class Hook = NoSolveHook>
+void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread, Hook* hook = nullptr);
 
 // One long rod's partitioned solve (kernels/viscous_implicit_partitioned.h):
 // its lane groups forwards (shared out over ex.threads), the separators'
@@ -171,8 +178,8 @@ void viscous_update(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int t
 
 namespace detail {
 
-template <Terms kT, int kLanes, class T>
-void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread) {
+template <Terms kT, int kLanes, class T, class Hook>
+void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int thread, Hook* hook) {
   constexpr int W = kLanes > 0 ? kLanes : kImplicitLanes<T>;
   constexpr int kv = kT.kelvin_voigt ? 1 : 0;
   const SolvePlan* plan = &b.workspace->solve_plan[kv];
@@ -232,7 +239,16 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
       }
     // a double rod alone in one lane (about 3× faster than the scalar
     // kernel: the lane kernel's symmetric, structured elimination), a half or
-    // a full group
+    // a full group; with a hook, it solves them
+    if constexpr (!std::is_same_v<Hook, NoSolveHook>) {
+      if (grp.count == 1)
+        hook->template group<1>(first, cells, stiff_h, rods, 1, sc, t);
+      else if (W2 > 1 && grp.half)
+        hook->template group<W2>(first, cells, stiff_h, rods, grp.count, sc, t);
+      else
+        hook->template group<W>(first, cells, stiff_h, rods, grp.count, sc, t);
+      return;
+    }
     if (grp.count == 1)
       viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, sc);
     else if (W2 > 1 && grp.half)

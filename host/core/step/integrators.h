@@ -113,7 +113,16 @@ void verlet_stages(RodBatch<T>& b, T dt, double t, std::int64_t done, bool solve
     if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_save_stage(b, e, r); });
     timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });
     if (solves_contacts<kT>(b, solve)) timed(e, thread, Stage::contact_solve, [&] { contact_solve_save(b, e, r); });
-    if (solve) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
+    // with collider contacts (and no self contact in the solve), the solve
+    // takes its lane groups' contacts itself, and the stage below the rest
+    bool fused = false;
+    if constexpr (kT.colliders)
+      if (solves_contacts<kT>(b, solve) && !contact_solve_reads_lists<kT>(b)) {
+        timed(e, thread, Stage::implicit_solve,
+              [&] { viscous_update_with_contacts<kSolve>(b, dt, frames, e, r, thread); });
+        fused = true;
+      }
+    if (solve && !fused) timed(e, thread, Stage::implicit_solve, [&] { viscous_update<kSolve>(b, dt, e, r, thread); });
   }
   const bool late = contact_solve_reads_lists<kT>(b);
   if (part == Part::all || (part == Part::before_contact && !late) || part == Part::contact_solve) {
@@ -140,8 +149,11 @@ bool prepare_solve(RodBatch<T>& b, const Exec& ex) {
   if (solve) b.reserve_implicit_scratch(ex.threads);
   // the contact solve's buffers, one per thread (before any parallel region)
   if constexpr (kT.colliders || kT.rod_contact)
-    if (solve && int(b.workspace->contact_solve.size()) < std::max(ex.threads, 1))
-      b.workspace->contact_solve.resize(std::size_t(std::max(ex.threads, 1)));
+    if (solve) {
+      if (int(b.workspace->contact_solve.size()) < std::max(ex.threads, 1))
+        b.workspace->contact_solve.resize(std::size_t(std::max(ex.threads, 1)));
+      if (b.workspace->contact_fused.size() < b.rods.size()) b.workspace->contact_fused.assign(b.rods.size(), 0);
+    }
   return solve;
 }
 }  // namespace detail

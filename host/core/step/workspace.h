@@ -33,24 +33,43 @@ struct SolveGroup {
   std::size_t offset = 0;
 };
 
+// One rod's contacts in the contact solve (host/core/step/contact_solve.h),
+// one lane of a group: its collider and self contacts, its nodes' contact
+// weights (cells), its Delassus operator over the contacts in the solve
+// (members, in the order they joined; each contact's place among them;
+// 9 × cap² values, and a spare for its growth), the contacts joining next
+// (from `next`); the rod (−1: none acts), its first slot and cells, the
+// group cell of its cell 0 (start), its lowest contact cell, the contacts'
+// velocity scale, and whether it is still being solved.
+template <class T>
+struct RodContacts {
+  std::vector<SolveContact<T>> contacts;
+  std::vector<T> weight, delassus, spare;
+  std::vector<int> members, place, joining;
+  int next = 0, cap = 0, rod = -1, first = 0, cells = 0, start = 0, low = 0;
+  T scale = T(0);
+  bool open = false;
+};
+
 // One thread's buffers of the contact solve (host/core/step/contact_solve.h):
-// a rod's collider contacts, its nodes' contact weights (cells), the factors
-// of its system (kernels/viscous_implicit.h FactorView, kKeepValues × cells;
-// keep_wide: a float batch's stiff rod, solved in double), its Delassus
-// operator over the contacts in the solve (members, their place in it, and
-// a spare for its growth: 9 × members²) and three right-hand sides (18 ×
-// cells); the
-// calling thread's: which rods of the segment have a contact that acts
-// (kind), those rods and the jobs they make ({kind, first, count}).
+// the rods' contacts of a lane group (lanes, one per lane), the factors of
+// their systems (kernels/viscous_implicit.h kKeepValues × lanes
+// × cells; keep_wide: a float batch's stiff rods, solved in double) and the
+// right-hand sides (18 × lanes × cells); the calling thread's: which rods
+// of the segment have a contact that acts (kind), those rods and the jobs
+// they make ({kind, first, count}).
 template <class T>
 struct ContactSolveBuffer {
-  std::vector<SolveContact<T>> contacts;
-  std::vector<T> weight, keep, delassus, spare;
-  std::vector<int> members, place, joining;
+  std::vector<RodContacts<T>> lanes;
+  std::vector<T> keep;
   std::vector<double> keep_wide, x;
   std::vector<char> kind;
   std::vector<int> rods;
   std::vector<std::array<int, 3>> jobs;
+  RodContacts<T>* lanes_for(int w) {
+    if (int(lanes.size()) < w) lanes.resize(std::size_t(w));
+    return lanes.data();
+  }
 };
 
 // Which rods the implicit solve visits, grouped once when the batch is built.
@@ -86,6 +105,10 @@ struct StepWorkspace {
   std::vector<T> driven_root_velocity;
   // one per thread (host/core/step/contact_solve.h), grown on first use
   std::vector<ContactSolveBuffer<T>> contact_solve;
+  // [rods] 1: the rod's collider contacts were solved in the implicit solve
+  // itself (host/core/step/contact_solve.h viscous_update_with_contacts),
+  // from there to the contact solve stage after it, which clears it
+  std::vector<char> contact_fused;
   // Slots whose rotation exceeded the branch-free kernels' range in the
   // current stage (host/core/step/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
