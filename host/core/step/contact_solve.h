@@ -10,8 +10,8 @@
 //                                acts, solved through the factors, the
 //                                group's rods together (one per SIMD lane)
 //   contact_solve_stage          after the solve, the rest: each rod the solve
-//                                steps that it did not take (a driven root,
-//                                prescribed velocities, a float batch's stiff
+//                                steps that it did not take (prescribed
+//                                velocities, a float batch's stiff
 //                                rod, a partitioned long rod; every rod with
 //                                self contact, whose lists the broad phase
 //                                builds after the solve) finds its collider
@@ -533,15 +533,15 @@ void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactVi
 // The collider contacts fused into the implicit solve (its Hook,
 // host/core/step/implicit_solve.h solve_segment): each lane group is solved
 // with its factors kept, then each of its rods whose contacts the solve
-// meets (ContactView::colliders_in_solve) and that has no reference hold
-// (the solve runs it relative to the hold's motion) finds its contacts and,
-// if one acts, takes them through its lane's factors, at once: no second
-// solve, no second search. Those rods are marked in StepWorkspace::
-// contact_fused; the stage after the solve takes the others (a reference
-// hold, prescribed velocities, a float batch's stiff rod solved in double, a
-// long rod's partitioned solve, the scalar kernel) as before. A rod's
-// result is the stage's to the bit: the same kept solve (solve_lanes_kept),
-// the same contacts, in the same order.
+// meets (ContactView::colliders_in_solve) gets its reference hold's rigid
+// motion back (if the solve ran it relative to one), finds its contacts
+// and, if one acts, takes them through its lane's factors, at once: no
+// second solve, no second search. Those rods are marked in StepWorkspace::
+// contact_fused; the stage after the solve takes the others (prescribed
+// velocities, a float batch's stiff rod solved in double, a long rod's
+// partitioned solve, the scalar kernel) as before. A rod's result is the
+// stage's to the bit: the same kept solve (solve_lanes_kept), the same
+// shifts, the same contacts, in the same order.
 // With a profile, the contacts' time moves from the implicit_solve stage to
 // contact_solve, as thread-seconds of the thread that ran them.
 template <Terms kKernel, class T>
@@ -565,6 +565,7 @@ struct ContactsAfterGroup {
     std::chrono::steady_clock::time_point t0;
     if (profile) t0 = std::chrono::steady_clock::now();
     char* fused = b.workspace->contact_fused.data();
+    const int* hold_of = b.workspace->contact_hold.data();
     const bool holds = r.driven_end > r.driven_begin;
     RodContacts<T>* lanes = buf.lanes_for(Wg);
     bool any = false;
@@ -572,8 +573,15 @@ struct ContactsAfterGroup {
       lanes[j].rod = -1;
       lanes[j].start = n - cells[j];
       const int ri = rods[j];
-      if (j >= count || !cv.colliders_in_solve(ri) || (holds && reference_hold(b, r, ri) >= 0)) continue;
+      if (j >= count || !cv.colliders_in_solve(ri)) continue;
       fused[ri] = 1;
+      // a rod solved relative to its reference hold's rigid motion: that
+      // motion back first (the solve's last step for it, done here), the
+      // contacts in the lab frame
+      if (holds && hold_of[ri] >= 0) {
+        shift_hold(b, hold_of[ri], T(1));
+        fused[ri] = 2;
+      }
       if (find_solve_contacts(b, ri, h, cv, lanes[j])) lanes[j].rod = ri;
       any = any || lanes[j].rod >= 0;
     }
@@ -583,6 +591,7 @@ struct ContactsAfterGroup {
       profile->move(thread, Stage::implicit_solve, Stage::contact_solve, d.count());
     }
   }
+  bool restored(int rod) const { return b.workspace->contact_fused[std::size_t(rod)] == 2; }
 };
 
 }  // namespace detail
@@ -600,12 +609,20 @@ void viscous_update_with_contacts(RodBatch<T>& b, T h, const ColliderFrame<T>* f
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
   const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt, kSolve.rod_contact);
   if (cv.collider_count == 0 || cv.self_in_solve != 0 || b.workspace->contact_solve.size() < std::size_t(std::max(ex.threads, thread + 1)) ||
-      b.workspace->contact_fused.size() < b.rods.size()) {
+      b.workspace->contact_fused.size() < b.rods.size() || b.workspace->contact_hold.size() < b.rods.size()) {
     detail::solve_segment<kKernel, 0>(b, h, ex, r, thread);
     return;
   }
+  // each rod's reference hold (StepWorkspace::contact_hold, −1 outside
+  // this call), for the hook
+  std::vector<int>& hold_of = b.workspace->contact_hold;
+  for (int i = r.driven_begin; i < r.driven_end; ++i) {
+    const DrivenHold& d = b.driven[std::size_t(i)];
+    if (d.reference && needs_implicit_solve(b.rods[d.rod], kSolve.kelvin_voigt)) hold_of[std::size_t(d.rod)] = i;
+  }
   detail::ContactsAfterGroup<kKernel, T> hook{b, h, cv, r, ex.profile};
   detail::solve_segment<kKernel, 0>(b, h, ex, r, thread, &hook);
+  for (int i = r.driven_begin; i < r.driven_end; ++i) hold_of[std::size_t(b.driven[std::size_t(i)].rod)] = -1;
 }
 
 // The stage on the rods of segment r that the solve steps (kSolve: the
@@ -643,7 +660,7 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
   const int room = b.workspace->visc_cells;
   char* fused = b.workspace->contact_fused.size() >= b.rods.size() ? b.workspace->contact_fused.data() : nullptr;
   auto which = [&](int ri, int t) {
-    if (fused && fused[ri]) {  // done in the solve (viscous_update_with_contacts)
+    if (fused && fused[ri] != 0) {  // done in the solve (viscous_update_with_contacts)
       fused[ri] = 0;
       return;
     }

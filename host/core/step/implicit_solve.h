@@ -64,12 +64,18 @@ void shift_hold(RodBatch<T>& b, int i, T sign) {
   store3(s.node_v, k, sign > T(0) ? root[0] : zero);
   store3(s.elem_w, g, sign > T(0) ? root[1] : zero);
 }
-template <class T>
-void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
+// `done(rod)`: the rod's hold was shifted back already (a stage fused
+// into the solve did, NoSolveHook never).
+template <class T, class Done>
+void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign, Done&& done) {
   for (int i = r.driven_begin; i < r.driven_end; ++i) {
     const DrivenHold& d = b.driven[i];
-    if (d.reference && needs_implicit_solve(b.rods[d.rod], kelvin_voigt)) shift_hold(b, i, sign);
+    if (d.reference && needs_implicit_solve(b.rods[d.rod], kelvin_voigt) && !done(d.rod)) shift_hold(b, i, sign);
   }
+}
+template <class T>
+void shift_reference_holds(RodBatch<T>& b, const Segment& r, bool kelvin_voigt, T sign) {
+  shift_reference_holds(b, r, kelvin_voigt, sign, [](int) { return false; });
 }
 
 // The terms the solve reads: the elastic components and the Kelvin–Voigt
@@ -90,7 +96,8 @@ constexpr Terms solve_kernel_terms(Terms t) {
 // A stage fused into the solve after each lane group (the collider contacts
 // of host/core/step/contact_solve.h ContactsAfterGroup): `Hook::group<Wg>`
 // solves the group itself, keeping its factors, and takes its rods' contacts
-// through them. NoSolveHook: none.
+// through them; `Hook::restored(rod)`: it shifted the rod's reference hold
+// back (the solve then does not). NoSolveHook: none.
 struct NoSolveHook {};
 
 template <Terms kT, int kLanes, class T, class Hook = NoSolveHook>
@@ -282,7 +289,12 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
       }
       solve_partitioned<kT, W>(b, h, ex, b.rods[plan->rods[grp.first]], buf);
     }
-  if (driven) detail::shift_reference_holds(b, r, kT.kelvin_voigt, T(1));
+  if (driven) {
+    if constexpr (std::is_same_v<Hook, NoSolveHook>)
+      detail::shift_reference_holds(b, r, kT.kelvin_voigt, T(1));
+    else
+      detail::shift_reference_holds(b, r, kT.kelvin_voigt, T(1), [&](int rod) { return hook->restored(rod); });
+  }
 }
 
 }  // namespace detail

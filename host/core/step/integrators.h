@@ -153,6 +153,7 @@ bool prepare_solve(RodBatch<T>& b, const Exec& ex) {
       if (int(b.workspace->contact_solve.size()) < std::max(ex.threads, 1))
         b.workspace->contact_solve.resize(std::size_t(std::max(ex.threads, 1)));
       if (b.workspace->contact_fused.size() < b.rods.size()) b.workspace->contact_fused.assign(b.rods.size(), 0);
+      if (b.workspace->contact_hold.size() < b.rods.size()) b.workspace->contact_hold.assign(b.rods.size(), -1);
     }
   return solve;
 }

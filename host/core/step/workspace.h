@@ -108,7 +108,10 @@ struct StepWorkspace {
   // [rods] 1: the rod's collider contacts were solved in the implicit solve
   // itself (host/core/step/contact_solve.h viscous_update_with_contacts),
   // from there to the contact solve stage after it, which clears it
-  std::vector<char> contact_fused;
+  std::vector<char> contact_fused;  // (2: and its reference hold's motion was added back there)
+  // [rods] the rod's reference hold in the segment being solved (−1: none),
+  // for viscous_update_with_contacts (−1 outside it)
+  std::vector<int> contact_hold;
   // Slots whose rotation exceeded the branch-free kernels' range in the
   // current stage (host/core/step/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
