@@ -167,6 +167,14 @@ MANYRODS_HD inline vec3<T> point_velocity(const SolveContact<T>& c, const T* con
   return own - ((T(1) - c.t) * load3(v, c.k2) + c.t * load3(v, c.k2 + 1));
 }
 
+// Whether contact c acts on its own at its point's velocity v, with no
+// impulse of its own: (S1) gives λ > 0, g + h (b/Ω²) n·(v − v_p) < 0.
+template <class T>
+MANYRODS_HD inline bool contact_acts(const SolveContact<T>& c, vec3<T> v, T h, T omega, T zeta) {
+  const T b = omega * omega + T(2) * zeta * omega;
+  return c.gap + h * (b / (omega * omega)) * dot(c.n, v - c.vp) < T(0);
+}
+
 // Contact c's impulse (S1–S3) for the point velocity v_rest without it and
 // its Delassus block w (symmetric, W_ii).
 template <class T>

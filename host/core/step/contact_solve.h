@@ -130,7 +130,6 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   // leave the split between them undetermined (the sweeps crawl).
   std::size_t kept = 0;
   bool any = false;
-  const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
   auto same_law = [](const SolveContact<T>& p, const SolveContact<T>& q) {
     return p.k2 < 0 && q.k2 < 0 && p.gap == q.gap && p.n.x == q.n.x && p.n.y == q.n.y && p.n.z == q.n.z && p.vp.x == q.vp.x &&
            p.vp.y == q.vp.y && p.vp.z == q.vp.z && p.mu[0] == q.mu[0] && p.mu[1] == q.mu[1] && p.mu[2] < T(0) &&
@@ -144,9 +143,8 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
                               buf.weight[std::size_t(c.k2 - first)], buf.weight[std::size_t(c.k2 + 1 - first)]);
     if (!(w > T(0))) continue;
     c.a = T(1) / w;
-    // acting on its own at the free solve's velocities ((S1): λ > 0)
-    const T vn = dot(c.n, point_velocity(c, st.node_v) - c.vp);
-    any = any || c.gap + h * (b_law / (cv.hardness * cv.hardness)) * vn < T(0);
+    // acting on its own at the free solve's velocities
+    any = any || contact_acts(c, point_velocity(c, st.node_v), h, cv.hardness, cv.damping_ratio);
     bool merged = false;
     if (c.s == T(0))
       for (std::size_t i = kept; i-- > 0 && buf.contacts[i].k >= c.k - 1;)
@@ -209,9 +207,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   auto x3 = [&](int l, int c, int i, int j) -> double& { return x[((6 * std::ptrdiff_t(c) + i) * 3 + j) * Wg + l]; };
   auto x1 = [&](int l, int c, int i) -> double& { return x[(6 * std::ptrdiff_t(c) + i) * Wg + l]; };
   const T b_law = cv.hardness * cv.hardness + T(2) * cv.damping_ratio * cv.hardness;
-  auto acts = [&](const SolveContact<T>& c, vec3<T> v) {  // (S1): λ > 0 with no impulse of its own
-    return c.gap + h * (b_law / (cv.hardness * cv.hardness)) * dot(c.n, v - c.vp) < T(0);
-  };
+  auto acts = [&](const SolveContact<T>& c, vec3<T> v) { return contact_acts(c, v, h, cv.hardness, cv.damping_ratio); };
   // the node cells (group cells) and weights of a contact's point, its
   // partner's for a self contact (weight −)
   auto points = [](const RodContacts<T>& rc, const SolveContact<T>& c, int (&cell)[4], double (&w)[4]) {
@@ -238,11 +234,12 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   // the lanes' next joining contacts (rc.joining[rc.next]), one per lane,
   // their three columns solved together; each row is its column's
   // transpose (W is symmetric)
+  auto joins = [](const RodContacts<T>& rc) { return rc.rod >= 0 && rc.next < int(rc.joining.size()); };
   auto join_round = [&]() {
     int from = n, to = n, any = 0;
     for (int l = 0; l < Wg; ++l) {
       RodContacts<T>& rc = lanes[l];
-      if (rc.rod < 0 || rc.next >= int(rc.joining.size())) continue;
+      if (!joins(rc)) continue;
       const SolveContact<T>& cj = rc.contacts[std::size_t(rc.joining[std::size_t(rc.next)])];
       from = std::min(from, rc.start + cj.k - rc.first);
       to = std::min(to, rc.start + rc.low);
@@ -252,7 +249,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     std::fill(x + std::ptrdiff_t(18) * Wg * std::min(from, to), x + std::ptrdiff_t(18) * Wg * n, 0.0);
     for (int l = 0; l < Wg; ++l) {
       RodContacts<T>& rc = lanes[l];
-      if (rc.rod < 0 || rc.next >= int(rc.joining.size())) continue;
+      if (!joins(rc)) continue;
       int cell[4];
       double w[4];
       const int np = points(rc, rc.contacts[std::size_t(rc.joining[std::size_t(rc.next)])], cell, w);
@@ -262,7 +259,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     viscous_solve_factored_lanes<3, Wg>(keep, G, n, from, to, x);
     for (int l = 0; l < Wg; ++l) {
       RodContacts<T>& rc = lanes[l];
-      if (rc.rod < 0 || rc.next >= int(rc.joining.size())) continue;
+      if (!joins(rc)) continue;
       const int j = rc.joining[std::size_t(rc.next++)];
       reserve(rc, int(rc.members.size()) + 1);
       rc.place[std::size_t(j)] = int(rc.members.size());
@@ -576,12 +573,9 @@ struct ContactsAfterGroup {
       if (j >= count || !cv.colliders_in_solve(ri)) continue;
       fused[ri] = 1;
       // a rod solved relative to its reference hold's rigid motion: that
-      // motion back first (the solve's last step for it, done here), the
-      // contacts in the lab frame
-      if (holds && hold_of[ri] >= 0) {
-        shift_hold(b, hold_of[ri], T(1));
-        fused[ri] = 2;
-      }
+      // motion back first (the solve's last step for it, done here:
+      // restored), the contacts in the lab frame
+      if (holds && hold_of[ri] >= 0) shift_hold(b, hold_of[ri], T(1));
       if (find_solve_contacts(b, ri, h, cv, lanes[j])) lanes[j].rod = ri;
       any = any || lanes[j].rod >= 0;
     }
@@ -591,7 +585,9 @@ struct ContactsAfterGroup {
       profile->move(thread, Stage::implicit_solve, Stage::contact_solve, d.count());
     }
   }
-  bool restored(int rod) const { return b.workspace->contact_fused[std::size_t(rod)] == 2; }
+  bool restored(int rod) const {
+    return b.workspace->contact_fused[std::size_t(rod)] != 0 && b.workspace->contact_hold[std::size_t(rod)] >= 0;
+  }
 };
 
 }  // namespace detail
@@ -660,7 +656,7 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
   const int room = b.workspace->visc_cells;
   char* fused = b.workspace->contact_fused.size() >= b.rods.size() ? b.workspace->contact_fused.data() : nullptr;
   auto which = [&](int ri, int t) {
-    if (fused && fused[ri] != 0) {  // done in the solve (viscous_update_with_contacts)
+    if (fused && fused[ri]) {  // done in the solve (viscous_update_with_contacts)
       fused[ri] = 0;
       return;
     }

@@ -108,7 +108,7 @@ struct StepWorkspace {
   // [rods] 1: the rod's collider contacts were solved in the implicit solve
   // itself (host/core/step/contact_solve.h viscous_update_with_contacts),
   // from there to the contact solve stage after it, which clears it
-  std::vector<char> contact_fused;  // (2: and its reference hold's motion was added back there)
+  std::vector<char> contact_fused;
   // [rods] the rod's reference hold in the segment being solved (−1: none),
   // for viscous_update_with_contacts (−1 outside it)
   std::vector<int> contact_hold;
