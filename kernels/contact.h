@@ -84,6 +84,15 @@ struct ContactView {
   // the rods the solve steps meet themselves there too, not in the stage
   int self_in_solve = 0;
   MANYRODS_HD bool self_solved(int rod) const { return self_in_solve != 0 && rod_in_solve[rod] != 0; }
+  // 1: the step has rod–rod contact (Terms::rod_contact, ContactSpec::rod_rod),
+  // and two rods the solve steps meet each other there (kernels/
+  // contact_solve.h, the partner's motion predicted), not in the stage
+  int rods_in_solve = 0;
+  MANYRODS_HD bool pair_solved(int ra, int rb) const {
+    return rods_in_solve != 0 && ra != rb && rod_in_solve[ra] != 0 && rod_in_solve[rb] != 0;
+  }
+  // the pair of elements of rods ra, rb that the solve meets (self or two rods)
+  MANYRODS_HD bool met_in_solve(int ra, int rb) const { return ra == rb ? self_solved(ra) : pair_solved(ra, rb); }
   int* elem_count = nullptr;
   int* elem_count_lo = nullptr;  // of them on node k (s < 1)
   int* elem_count_hi = nullptr;  // on node k+1 (s > 0)
@@ -91,6 +100,8 @@ struct ContactView {
   T* p0[3] = {};
   T* p1[3] = {};
   T* l[3] = {};
+  T* q0[3] = {};  // the impulses of the contacts met in the implicit solve (kernels/contact_solve.h)
+  T* q1[3] = {};
   T* work = nullptr;
   T* v_start[3] = {};  // the velocities at the step's start (save_start_velocities)
   T* w_start[3] = {};
@@ -665,7 +676,7 @@ MANYRODS_HD inline void element_contacts(int k, T h, const ModelView<T>& m, cons
       const int nc = kImpulse && cv.elem_push[k] == 0 ? 0 : cv.neighbour_count[k];
       for (int j = 0; j < nc; ++j) {
         const int kb = cv.neighbours[std::size_t(k) * std::size_t(cv.capacity) + std::size_t(j)];
-        if (cv.elem_rod[kb] == rod && cv.self_solved(rod)) continue;  // met in its solve (kernels/contact_solve.h)
+        if (cv.met_in_solve(rod, cv.elem_rod[kb])) continue;  // met in their solve (kernels/contact_solve.h)
         const int lo = k < kb ? k : kb, hi = k < kb ? kb : k;
         const int near = pair_near(lo, hi, cv.elem_rod, cv.rod_near);
         const T ra = cv.elem_radius[lo], rb = cv.elem_radius[hi];

@@ -393,12 +393,15 @@ TEST(Contact, RodOnTwoCrossingRodsCarriesItsWeight) {
   EXPECT_GT(b.position(2, 2)[2], 3 * kR - 0.02 * kR);
   EXPECT_GT(b.position(2, 8)[2], 3 * kR - 0.02 * kR);
   // and the rod–rod impulses on it carry its weight: Σ p = m g h per step
-  // (at rest to the decay of its vibration, e^{−t/τ} after 0.5 s)
-  double pz = 0;
+  // (at rest to the decay of its vibration, e^{−t/τ} after 0.5 s); the
+  // damped rods meet each other in their solve (elem_q0, q1)
+  double pz = 0, pz_stage = 0;
   for (int e = 0; e < b.elements(2); ++e) {
     const int k = b.elem_index(2, e);
-    pz += b.contact.elem_p0[2][k] + b.contact.elem_p1[2][k];
+    pz += b.contact.elem_q0[2][k] + b.contact.elem_q1[2][k];
+    pz_stage += b.contact.elem_p0[2][k] + b.contact.elem_p1[2][k];
   }
+  EXPECT_EQ(pz_stage, 0.0);
   EXPECT_NEAR(pz / h, rod_mass(b, 2) * kG, 1e-3 * rod_mass(b, 2) * kG);
 }
 
@@ -1019,4 +1022,94 @@ TEST(Contact, ADampedCableDroppedOnAnotherNeverGainsEnergyNorPassesThrough) {
       EXPECT_GT(lowest, 0.0) << "tau " << tau << " v " << v;
       EXPECT_LT(deepest, 0.25 * r) << "tau " << tau << " v " << v;
     }
+}
+
+// ---- Rod–rod contacts in the solve ----------------------------------------------------
+// The stiff hair of the swing above, onto another stiff hair clamped at
+// both ends across its path (5 cm below its root, at x = 15 cm) instead of
+// a head: both are stepped by the implicit solve, so they meet each other
+// inside it, each predicting the other's motion and the iterations between
+// them making the pair consistent (docs/contact.md). The bounds are those of
+// the head (the same hair, the same integrator error: at most the energy of
+// the fall at this step, at least 4× less at h/2; a rigid capsule in the
+// other hair's place gives 0.215 and 0); a stage after the solve gained
+// 260× that energy here (161× with the crossing 2 cm below). Both sides'
+// impulses are opposite to the bit (their mean): the total is round-off.
+// The iterations converge at this step (reference: none stalls; they take
+// ~12 on average, at most ~25).
+TEST(Contact, AStiffHairSwungOntoAnotherNeverGainsEnergy) {
+  auto run = [&](double h) {
+    RodSpec a = cases::hair(32, true, Damping::shear_extension(1e-3, 1e-3));
+    RodSpec across = cases::hair(32, true, Damping::shear_extension(1e-3, 1e-3));
+    const RodSpec line = RodSpec::straight({0.15, -0.1, -0.05}, {0, 1, 0}, {0, 0, 1}, cases::kHairL, 32);
+    across.nodes = line.nodes;
+    across.frames = line.frames;
+    across.clamped_tip = true;
+    RodBatch<double> b = build_batch<double>({a, across}, {0, 0, -kG});
+    ContactSpec spec;
+    spec.rod_rod = true;
+    spec.friction = {0.4, 0.3};
+    set_contact(b, spec);
+    auto mech = [&] {
+      const Energies e = energies<kRodContact>(b);
+      return e.kinetic + e.elastic + e.potential;
+    };
+    const double e0 = mech();
+    double rise = 0, sum = 0, imbalance = 0;
+    for (int i = 0; i < int(0.6 / h); ++i) {
+      step<kRodContact>(b, h);
+      rise = std::max(rise, mech() - e0);
+      Vec3 q[2] = {{0, 0, 0}, {0, 0, 0}};
+      for (int r = 0; r < 2; ++r)
+        for (int e = 0; e < 32; ++e)
+          for (int d = 0; d < 3; ++d) {
+            const int k = b.elem_index(r, e);
+            q[r][d] += b.contact.elem_q0[d][k] + b.contact.elem_q1[d][k];
+          }
+      for (int d = 0; d < 3; ++d) {
+        sum += std::abs(q[0][d]);
+        imbalance = std::max(imbalance, std::abs(q[0][d] + q[1][d]));
+      }
+    }
+    const ContactStats cs = contact_stats(b);
+    std::printf("stiff hair onto a stiff hair at h = %g: highest rise of K + E + U %.3g of m g × 0.1 m; "
+                "iterations %.3g a step on average, at most %d, %lld of %lld steps unconverged; "
+                "impulse imbalance %.3g of their sum\n",
+                h, rise / (rod_mass(b, 0) * kG * 0.1), double(cs.solve_iterations) / double(std::max<std::int64_t>(cs.solve_steps, 1)),
+                cs.solve_iterations_max, (long long)cs.solve_unconverged, (long long)cs.solve_steps, imbalance / sum);
+    EXPECT_GT(sum, 0.0);                  // they touched
+    EXPECT_LE(imbalance, 1e-12 * sum);    // opposite impulses (round-off of the node sums)
+    EXPECT_EQ(cs.solve_unconverged, 0);
+    return rise / (rod_mass(b, 0) * kG * 0.1);
+  };
+  const double onto = run(3e-4), onto_half = run(1.5e-4);
+  EXPECT_LT(onto, 1.0);
+  EXPECT_LE(onto_half, 0.25 * onto + 1e-12);
+}
+
+// Two damped rods meeting obliquely in their solve, with friction and no
+// gravity: each pair's impulse is the mean of its two sides', applied +p
+// and −p, so the total momentum changes only by the round-off of the sums
+// (10⁻¹² of the moving rod's momentum), and the contacts take work.
+TEST(Contact, RodsMeetingInTheirSolveKeepTheirMomentum) {
+  std::vector<RodSpec> rods = {lying_rod({-0.05, 0, 0}, {1, 0, 0}), lying_rod({0.01, -0.05, 2 * kR + 0.002}, {0, 1, 0})};
+  for (RodSpec& r : rods) r.damping = Damping::shear_extension(0.01, 0.01);
+  RodBatch<double> b = build_batch<double>(rods, {0, 0, 0});
+  for (int i = 0; i <= b.elements(1); ++i) b.set_velocity(1, i, {0.3, 0.2, -1});
+  ContactSpec spec;
+  spec.rod_rod = true;
+  spec.friction = {0.4, 0.3};
+  set_contact(b, spec);
+  const Vec3 p0 = momentum(b, 1);
+  bool touched = false;
+  for (int i = 0; i < 100; ++i) {
+    step<kRodContact>(b, 1e-4);
+    touched = touched || contact_stats(b).contacts > 0;
+  }
+  ASSERT_TRUE(touched);
+  const Vec3 pa = momentum(b, 0), pb = momentum(b, 1);
+  EXPECT_LT(pa[2], -0.1 * std::abs(p0[2]));  // rod 0 was pushed down
+  EXPECT_GT(contact_stats(b).solve_steps, 0);  // in the solve
+  for (int d = 0; d < 3; ++d) EXPECT_NEAR(pa[d] + pb[d], p0[d], 1e-12 * std::abs(p0[2])) << d;
+  EXPECT_LT(energies<kRodContact>(b).contact_work, 0);
 }

@@ -155,6 +155,12 @@ struct ContactData {
   double max_radius = 0;  // m: the rods' largest contact radius
   bool built = false;
   std::int64_t rebuilds = 0;
+  // rod–rod contacts in the solve (docs/contact.md "Contact inside the
+  // implicit solve"): its block-Jacobi iterations between rods so far, the
+  // steps they ran in, the most one step took, and the steps that ended
+  // without converging (their moves stalled or reached the cap)
+  std::int64_t solve_iterations = 0, solve_calls = 0, solve_unconverged = 0;
+  int solve_iterations_max = 0;
 };
 
 // Contacts now (recomputed from the state; for outputs, not for the step).
@@ -165,6 +171,10 @@ struct ContactStats {
   std::int64_t rebuilds = 0;     // rod–rod neighbour-list rebuilds so far
   int list_capacity = 0;         // the lists' capacity now, and how often they grew
   std::int64_t list_growths = 0;
+  // rod–rod contacts in the solve: the iterations between rods so far, the
+  // steps that ran them, the most in one step, the steps that did not converge
+  std::int64_t solve_iterations = 0, solve_steps = 0, solve_unconverged = 0;
+  int solve_iterations_max = 0;
 };
 
 template <class T>

@@ -97,6 +97,8 @@
   X(T, elem_p0, p0, 3, 0, "[3][slots] N·s: the impulse on node k from element k's contacts")                   \
   X(T, elem_p1, p1, 3, 0, "[3][slots] N·s: the impulse on node k+1")                                           \
   X(T, elem_l, l, 3, 0, "[3][slots] N·m·s: the couple impulse on element k (lab)")                              \
+  X(T, elem_q0, q0, 3, 0, "[3][slots] N·s: as elem_p0, of the contacts met in the implicit solve")             \
+  X(T, elem_q1, q1, 3, 0, "[3][slots] N·s: as elem_p1, of the contacts met in the implicit solve")             \
   X(T, work, work, 1, 0, "[slots] J: the contact impulses' work on slot k's node and element, summed")          \
   X(T, node_v_start, v_start, 3, 0, "[3][slots] m/s: node k's velocity at the step's start (the work's mean velocity)") \
   X(T, elem_w_start, w_start, 3, 0, "[3][slots] rad/s: element k's angular velocity (material) at the step's start") \

@@ -32,9 +32,11 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstddef>
 #include <stdexcept>
+#include <type_traits>
 
 #include "host/core/step/contact_stage.h"
 #include "host/core/step/implicit_solve.h"
@@ -43,14 +45,18 @@
 namespace manyrods {
 
 // u⁻ of the slots of r, before the implicit solve.
-// reads: state.node_v, elem_w  writes: contact.v_solve, w_solve
+// (and the solve's contact impulses cleared)
+// reads: state.node_v, elem_w  writes: contact.v_solve, w_solve, q0, q1
 template <class T>
 void contact_solve_save(RodBatch<T>& b, const Exec& ex, const Segment& r) {
   const ConstStateView<T> cs = std::as_const(b).state_view();
   const ContactView<T> cv = contact_view(b, static_cast<const ColliderFrame<T>*>(nullptr));
+  const vec3<T> zero{T(0), T(0), T(0)};
   detail::for_slots(r.begin, r.end, ex, [&](int k) {
     store3(cv.v_solve, k, load3(cs.node_v, k));
     store3(cv.w_solve, k, load3(cs.elem_w, k));
+    store3(cv.q0, k, zero);
+    store3(cv.q1, k, zero);
   });
 }
 
@@ -73,6 +79,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   buf.first = first;
   buf.cells = cells;
   buf.contacts.clear();
+  buf.pairs = 0;
   buf.weight.assign(std::size_t(cells), T(0));  // the contacts on each node
   const T reach = h * (T(1) + T(2) * cv.damping_ratio / cv.hardness);
   for (int e = 0; e < rod.elements; ++e) {
@@ -121,6 +128,38 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
         buf.contacts.push_back(sc);
       }
     }
+    if (cv.rods_in_solve != 0 && cv.colliders_in_solve(ri)) {
+      // another rod's elements the solve steps too (S4): each pair's geometry
+      // from its lower slot (pair_geometry), the same on both sides; in range
+      // where it can push within the step (the stage's test, kernels/
+      // contact.h element_contacts, with its guard); the partner's velocity
+      // predicted by the free solve's
+      const int* list = cv.neighbours + std::size_t(k) * std::size_t(cv.capacity);
+      for (int j = 0; j < cv.neighbour_count[k]; ++j) {
+        const int kb = list[j], rb = cv.elem_rod[kb];
+        if (!cv.pair_solved(ri, rb)) continue;
+        const int lo = k < kb ? k : kb, hi = k < kb ? kb : k;
+        const PairGeometry<T> g = pair_geometry(lo, hi, st.node_x, cv.elem_radius, 0);
+        if (!(g.gap < reach * (va + max_speed(st, kb)) + T(1e-3) * (cv.elem_radius[lo] + cv.elem_radius[hi])))
+          continue;
+        const vec3<T> n_lo = unit_or(g.d, g.len, any_orthogonal(g.e_lo));  // towards lo's point
+        SolveContact<T> sc;
+        sc.k = k;
+        sc.s = k == lo ? g.s : g.t;
+        sc.kb = kb;
+        sc.partner = rb;
+        sc.t = k == lo ? g.t : g.s;
+        sc.gap = g.gap;
+        sc.n = k == lo ? n_lo : T(-1) * n_lo;
+        sc.axis = axis;
+        sc.vp = (T(1) - sc.t) * load3(st.node_v, kb) + sc.t * load3(st.node_v, kb + 1);
+        rod_pair_mu(cv, ri, rb, sc.mu);
+        if (sc.s < T(1)) buf.weight[std::size_t(k - first)] += T(1);
+        if (sc.s > T(0)) buf.weight[std::size_t(k + 1 - first)] += T(1);
+        buf.contacts.push_back(sc);
+        ++buf.pairs;
+      }
+    }
   }
   // the contacts' masses (kernels/contact.h element_side; a self contact's
   // two sides in series); a contact between two held nodes is none. Two elements' contacts at their shared
@@ -131,7 +170,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   std::size_t kept = 0;
   bool any = false;
   auto same_law = [](const SolveContact<T>& p, const SolveContact<T>& q) {
-    return p.k2 < 0 && q.k2 < 0 && p.gap == q.gap && p.n.x == q.n.x && p.n.y == q.n.y && p.n.z == q.n.z && p.vp.x == q.vp.x &&
+    return p.k2 < 0 && q.k2 < 0 && p.kb < 0 && q.kb < 0 && p.gap == q.gap && p.n.x == q.n.x && p.n.y == q.n.y && p.n.z == q.n.z && p.vp.x == q.vp.x &&
            p.vp.y == q.vp.y && p.vp.z == q.vp.z && p.mu[0] == q.mu[0] && p.mu[1] == q.mu[1] && p.mu[2] < T(0) &&
            q.mu[2] < T(0);
   };
@@ -141,6 +180,12 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
     if (c.k2 >= 0)
       w += contact_compliance(c.t, m.node_inv_mass[c.k2], m.node_inv_mass[c.k2 + 1],
                               buf.weight[std::size_t(c.k2 - first)], buf.weight[std::size_t(c.k2 + 1 - first)]);
+    if (c.kb >= 0) {  // its mass once both sides are known (pair_contacts); kept on a held point too
+      c.own_compliance = w;
+      any = any || contact_acts(c, point_velocity(c, st.node_v), h, cv.hardness, cv.damping_ratio);
+      buf.contacts[kept++] = c;
+      continue;
+    }
     if (!(w > T(0))) continue;
     c.a = T(1) / w;
     // acting on its own at the free solve's velocities
@@ -159,6 +204,24 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   return any;
 }
 
+// What a call of group_contacts_through_factors does: solo, all of it (the
+// rods' contacts solved, their response taken); with rod–rod contacts in the
+// solve (block-Jacobi iterations between rods, contact_solve_stage), begin
+// (the contacts that act at the free velocities found, nothing solved),
+// iterate (one iteration of the rods the caller opened: the sweeps with the
+// partners' motion fixed, their response only to find contacts that join)
+// and finish (the response taken).
+enum class GroupMode { solo, begin, iterate, finish };
+
+// Pointers to a thread buffer's first w lanes (ContactSolveBuffer::lanes_for).
+template <class T, int W>
+std::array<RodContacts<T>*, W> lane_pointers(ContactSolveBuffer<T>& buf) {
+  std::array<RodContacts<T>*, W> p;
+  RodContacts<T>* l = buf.lanes_for(W);
+  for (int j = 0; j < W; ++j) p[std::size_t(j)] = l + j;
+  return p;
+}
+
 // The contacts of the rods of one lane group (their RodContacts in
 // buf.lanes, filled by find_solve_contacts; lanes[l].rod < 0: none acts)
 // through the group's kept factors (keep, and G in the scratch; group cell
@@ -173,9 +236,9 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
 // of solving it alone (each lane's arithmetic is the one-rod solve's).
 template <int Wg, class Tc, class T>
 void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf,
-                                    Tc* const* keep, Tc* const* G, int n) {
+                                    RodContacts<T>* const* lanes, Tc* const* keep, Tc* const* G, int n,
+                                    GroupMode mode = GroupMode::solo) {
   const StateView<T> s = b.state_view();
-  RodContacts<T>* const lanes = buf.lanes.data();
   // The contacts in the solve of a rod (in: those that act on their own at
   // the free velocities, then any the others' impulses make act) are its
   // `members`, in the order they joined; W over them only: W_ij = J_i A⁻¹ J_jᵀ
@@ -238,7 +301,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   auto join_round = [&]() {
     int from = n, to = n, any = 0;
     for (int l = 0; l < Wg; ++l) {
-      RodContacts<T>& rc = lanes[l];
+      RodContacts<T>& rc = *lanes[l];
       if (!joins(rc)) continue;
       const SolveContact<T>& cj = rc.contacts[std::size_t(rc.joining[std::size_t(rc.next)])];
       from = std::min(from, rc.start + cj.k - rc.first);
@@ -248,7 +311,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     if (!any) return false;
     std::fill(x + std::ptrdiff_t(18) * Wg * std::min(from, to), x + std::ptrdiff_t(18) * Wg * n, 0.0);
     for (int l = 0; l < Wg; ++l) {
-      RodContacts<T>& rc = lanes[l];
+      RodContacts<T>& rc = *lanes[l];
       if (!joins(rc)) continue;
       int cell[4];
       double w[4];
@@ -258,7 +321,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     }
     viscous_solve_factored_lanes<3, Wg>(keep, G, n, from, to, x);
     for (int l = 0; l < Wg; ++l) {
-      RodContacts<T>& rc = lanes[l];
+      RodContacts<T>& rc = *lanes[l];
       if (!joins(rc)) continue;
       const int j = rc.joining[std::size_t(rc.next++)];
       reserve(rc, int(rc.members.size()) + 1);
@@ -292,13 +355,13 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   auto response = [&]() {
     int from = n, to = n;
     for (int l = 0; l < Wg; ++l)
-      if (lanes[l].rod >= 0 && lanes[l].open) {
-        from = std::min(from, lanes[l].start + lanes[l].low);
-        to = std::min(to, lanes[l].start);
+      if (lanes[l]->rod >= 0 && lanes[l]->open) {
+        from = std::min(from, lanes[l]->start + lanes[l]->low);
+        to = std::min(to, lanes[l]->start);
       }
     std::fill(x + std::ptrdiff_t(6) * Wg * to, x + std::ptrdiff_t(6) * Wg * n, 0.0);
     for (int l = 0; l < Wg; ++l) {
-      RodContacts<T>& rc = lanes[l];
+      RodContacts<T>& rc = *lanes[l];
       if (rc.rod < 0 || !rc.open) continue;
       for (const int i : rc.members) {
         const SolveContact<T>& c = rc.contacts[std::size_t(i)];
@@ -329,7 +392,16 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
         if (!c.in) continue;
         const mat3<T> wii = mat(rc, i, i);
         const vec3<T> v0 = c.v;
-        const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
+        vec3<T> p;
+        if (c.kb < 0) {
+          p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
+        } else if (c.a > T(0)) {  // (S4): the partner's block added, its motion in c.vp
+          mat3<T> we = wii;
+          for (int e = 0; e < 9; ++e) we.m[e] += c.wp.m[e];
+          p = contact_local_impulse(c, we, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
+        } else {  // two held points
+          p = vec3<T>{T(0), T(0), T(0)};
+        }
         const vec3<T> dp = p - c.p;
         if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
           for (const int j : rc.members)
@@ -349,20 +421,34 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   // work of the impulses, P·(v_n + v_{n+1})/2 at the point (a self contact:
   // on both of its points, with the relative velocity)
   auto finish = [&](int l) {
-    RodContacts<T>& rc = lanes[l];
+    RodContacts<T>& rc = *lanes[l];
     for (int c = 0; c < rc.cells; ++c)
       for (int d = 0; d < 3; ++d) {
         s.node_v[d][rc.first + c] += T(x1(l, rc.start + c, d));
         s.elem_w[d][rc.first + c] += T(x1(l, rc.start + c, 3 + d));
       }
     for (const SolveContact<T>& c : rc.contacts)
-      if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0))
+      if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0)) {
         cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
+        store3(cv.q0, c.k, load3(cv.q0, c.k) + (T(1) - c.s) * c.p);  // (reported, as the stage's elem_p0, p1)
+        store3(cv.q1, c.k, load3(cv.q1, c.k) + c.s * c.p);
+        if (c.k2 >= 0) {
+          store3(cv.q0, c.k2, load3(cv.q0, c.k2) - (T(1) - c.t) * c.p);
+          store3(cv.q1, c.k2, load3(cv.q1, c.k2) - c.t * c.p);
+        }
+      }
     rc.open = false;
   };
+  if (mode == GroupMode::finish) {  // the rods' responses to their impulses, into their velocities
+    for (int l = 0; l < Wg; ++l) lanes[l]->open = lanes[l]->rod >= 0 && !lanes[l]->members.empty();
+    response();
+    for (int l = 0; l < Wg; ++l)
+      if (lanes[l]->rod >= 0 && lanes[l]->open) finish(l);
+    return;
+  }
   // start: every rod's contacts that act at the free velocities join
-  for (int l = 0; l < Wg; ++l) {
-    RodContacts<T>& rc = lanes[l];
+  for (int l = 0; l < (mode == GroupMode::iterate ? 0 : Wg); ++l) {
+    RodContacts<T>& rc = *lanes[l];
     if (rc.rod < 0) continue;
     const int nc = int(rc.contacts.size());
     rc.low = rc.cells;
@@ -384,7 +470,9 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     for (int j = 0; j < nc; ++j)
       if (acts(rc.contacts[std::size_t(j)], rc.contacts[std::size_t(j)].v)) rc.joining.push_back(j);
     rc.open = !rc.joining.empty();
+    for (SolveContact<T>& c : rc.contacts) c.v_now = c.v;
   }
+  if (mode == GroupMode::begin) return;
   // rounds: the joining contacts' columns; each open rod's sweeps; the
   // responses; then any contact that a rod's impulses make act joins (its
   // velocity from the response) and that rod's sweeps go on; a rod with
@@ -394,7 +482,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     }
     bool open = false;
     for (int l = 0; l < Wg; ++l) {
-      RodContacts<T>& rc = lanes[l];
+      RodContacts<T>& rc = *lanes[l];
       if (rc.rod < 0 || !rc.open) continue;
       rc.joining.clear();
       rc.next = 0;
@@ -404,7 +492,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     if (!open) break;
     response();
     for (int l = 0; l < Wg; ++l) {
-      RodContacts<T>& rc = lanes[l];
+      RodContacts<T>& rc = *lanes[l];
       if (rc.rod < 0 || !rc.open) continue;
       const int nc = int(rc.contacts.size());
       if (int(rc.members.size()) < nc)
@@ -418,11 +506,14 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
           for (int q = 0; q < np; ++q)
             for (int d = 0; d < 3; ++d) dv[d] += w[q] * x1(l, cell[q], d);
           const vec3<T> v = c.v + vec3<T>{T(dv[0]), T(dv[1]), T(dv[2])};
+          c.v_now = v;
           if (!acts(c, v)) continue;
           c.v = v;
           rc.joining.push_back(j);
         }
-      if (rc.joining.empty()) finish(l);
+      if (!rc.joining.empty()) continue;
+      if (mode == GroupMode::solo) finish(l);
+      else rc.open = false;  // this iteration's; the response comes at the end (GroupMode::finish)
     }
   }
 }
@@ -503,7 +594,7 @@ void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, 
     lanes[j].start = n - cells[j];
     any = any || lanes[j].rod >= 0;
   }
-  if (any) group_contacts_through_factors<W>(b, h, cv, buf, kp, sc.G, n);
+  if (any) group_contacts_through_factors<W>(b, h, cv, buf, lane_pointers<T, W>(buf).data(), kp, sc.G, n);
 }
 
 // Rod ri with prescribed velocities (the scalar kernel, as the solve takes
@@ -524,7 +615,8 @@ void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactVi
   RodContacts<T>& one = buf.lanes_for(1)[0];
   one.rod = find_solve_contacts(b, ri, h, cv, one) ? ri : -1;
   one.start = 0;  // (the scalar kernel's factors: the rod's cells from 0, no ghost)
-  if (one.rod >= 0) group_contacts_through_factors<1>(b, h, cv, buf, kp, sc.G, rod.elements + 1);
+  if (one.rod >= 0)
+    group_contacts_through_factors<1>(b, h, cv, buf, lane_pointers<T, 1>(buf).data(), kp, sc.G, rod.elements + 1);
 }
 
 // The collider contacts fused into the implicit solve (its Hook,
@@ -579,7 +671,7 @@ struct ContactsAfterGroup {
       if (find_solve_contacts(b, ri, h, cv, lanes[j])) lanes[j].rod = ri;
       any = any || lanes[j].rod >= 0;
     }
-    if (any) group_contacts_through_factors<Wg>(b, h, cv, buf, kp, sc.G, n);
+    if (any) group_contacts_through_factors<Wg>(b, h, cv, buf, lane_pointers<T, Wg>(buf).data(), kp, sc.G, n);
     if (profile) {
       const std::chrono::duration<double> d = std::chrono::steady_clock::now() - t0;
       profile->move(thread, Stage::implicit_solve, Stage::contact_solve, d.count());
@@ -590,6 +682,318 @@ struct ContactsAfterGroup {
   }
 };
 
+
+// How the contact solve takes rod ri (a job kind): 1 in a lane group, 2 in
+// a lane group in double (a float batch's stiff rod), 3 prescribed; 4, 5:
+// as 1, 2 but alone in one lane (a rod too long for a group in the thread's
+// buffer, as the solve's partitioned ones).
+template <class T>
+char solve_job_kind(const RodBatch<T>& b, int ri, const Exec& ex) {
+  constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
+  const RodInfo& rod = b.rods[std::size_t(ri)];
+  const bool wide = sizeof(T) < sizeof(double) && rod.stiff_implicit && ex.stiff_solve_in_double;
+  const bool fits = (wide ? kWide : W) * (rod.elements + 2) <= b.workspace->visc_cells;
+  return char(rod.prescribed ? 3 : wide ? (fits ? 2 : 5) : (fits ? 1 : 4));
+}
+
+// The jobs of the rods of r by their kind (own.kind, 0: none): {kind, first
+// in own.rods, count}, each kind's rods in their order, in groups of its width.
+template <class T>
+void make_solve_jobs(ContactSolveBuffer<T>& own, const Segment& r) {
+  constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
+  own.rods.clear();
+  own.jobs.clear();
+  for (int kind = 1; kind <= 5; ++kind) {
+    const int width = kind == 1 ? W : kind == 2 ? kWide : 1;
+    for (int ri = r.rod_begin; ri < r.rod_end; ++ri) {
+      if (own.kind[std::size_t(ri - r.rod_begin)] != kind) continue;
+      if (own.jobs.empty() || own.jobs.back()[0] != kind || own.jobs.back()[2] == width)
+        own.jobs.push_back({kind, int(own.rods.size()), 0});
+      own.rods.push_back(ri);
+      ++own.jobs.back()[2];
+    }
+  }
+}
+
+// f(i, thread) for i in [0, count): over the threads (dynamic chunks of
+// `chunk`) when `parallel`, each call's arithmetic its own.
+template <class F>
+void for_each_index(int count, bool parallel, const Exec& ex, int thread, int chunk, F&& f) {
+  if (parallel && count > 1) {
+    const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
+#pragma omp parallel num_threads(ex.threads)
+    {
+      const RegionFpScope fp(mode);
+#pragma omp for schedule(dynamic, chunk)
+      for (int i = 0; i < count; ++i) f(i, omp_get_thread_num());
+    }
+  } else {
+    for (int i = 0; i < count; ++i) f(i, thread);
+  }
+}
+
+// ---- rod–rod contacts in the solve ---------------------------------------------
+// Two rods the solve steps meet each other inside it (kernels/
+// contact_solve.h (S4)): every rod with a contact that acts or a rod–rod
+// pair in range is solved again keeping its factors (one lane group a job,
+// the factors kept for the whole stage: StepWorkspace::kept_factors), and
+// block-Jacobi iterations between the rods make the pairs consistent: in an
+// iteration every rod solves its contacts (Gauss–Seidel, as alone) with each
+// partner's motion and Delassus block from the iteration before, then each
+// pair's two impulses are averaged. They end when no rod's contact
+// velocities move by more than kContactSweepTolerance of its scale in an
+// iteration and no contact is left to join, when the moves stall (their
+// largest has not halved in kContactStallSweeps iterations) or after
+// kMaxRodIterations; then each rod takes its impulses through its factors.
+
+inline constexpr int kMaxRodIterations = 200;
+inline constexpr int kKeptFactorValues = kKeepValues + 36;  // keep, then G
+
+// A job's kept factors: keep and G, each lanes × n values, in `store`.
+template <class Tc>
+void kept_factor_pointers(Tc* store, std::size_t per, Tc* (&kp)[kKeepValues], Tc* (&G)[36]) {
+  for (int a = 0; a < kKeepValues; ++a) kp[a] = store + std::size_t(a) * per;
+  for (int i = 0; i < 36; ++i) G[i] = store + std::size_t(kKeepValues + i) * per;
+}
+
+// One job (rods[0 … count), W lanes, solved in Tc) of the rod–rod contact
+// solve in mode gm: begin solves the rods again from u⁻ (as
+// solve_group_with_contacts, or the scalar kernel for a rod with
+// prescribed velocities), keeps the factors in `store` (n: the group's
+// cells) and finds the contacts that act; iterate and finish take them
+// from there (group_contacts_through_factors).
+template <Terms kKernel, int W, class Tc, class T>
+void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
+                      ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
+                      const Segment& r, std::vector<Tc>& store, int& n, GroupMode gm, bool prescribed) {
+  std::vector<RodContacts<T>>& rcs = b.workspace->rod_contacts;
+  std::array<RodContacts<T>*, W> lanes;
+  RodContacts<T>* pad = buf.lanes_for(1);  // a lane short of a rod
+  pad->rod = -1;
+  for (int j = 0; j < W; ++j) lanes[std::size_t(j)] = j < count ? &rcs[std::size_t(rods[j])] : pad;
+  if (gm == GroupMode::begin) {
+    const ModelView<T> m = b.model_view();
+    const StateView<T> s = b.state_view();
+    Tc* kp[kKeepValues];
+    if (prescribed) {  // one rod, the scalar kernel's factors: its cells from 0, no ghost
+      const RodInfo& rod = b.rods[std::size_t(rods[0])];
+      const int hold = reference_hold(b, r, rods[0]);
+      restore_pre_solve(b, rods[0], cv);
+      if (hold >= 0) shift_hold(b, hold, T(-1));
+      n = rod.elements + 1;
+      keep_pointers(keep, n, kp);
+      if constexpr (std::is_same_v<Tc, T>)
+        viscous_implicit_rod<kKernel>(rod.offset + 1, n, h, rod.stiff_implicit ? h : T(0), m, s, sc, kp);
+      if (hold >= 0) shift_hold(b, hold, T(1));
+      lanes[0]->start = 0;
+    } else {
+      int first[W], cells[W], hold[W];
+      T stiff_h[W];
+      n = 0;
+      for (int j = 0; j < W; ++j) {  // a group short of W fills up with its last rod
+        hold[j] = -1;
+        const RodInfo& rod = b.rods[std::size_t(rods[j < count ? j : count - 1])];
+        first[j] = rod.offset + 1;
+        cells[j] = rod.elements + 1;
+        stiff_h[j] = rod.stiff_implicit ? h : T(0);
+        n = std::max(n, cells[j]);
+      }
+      n += 1;  // the root ghost cell (see viscous_implicit_lanes)
+      for (int j = 0; j < count; ++j) {
+        restore_pre_solve(b, rods[j], cv);
+        hold[j] = reference_hold(b, r, rods[j]);
+        if (hold[j] >= 0) shift_hold(b, hold[j], T(-1));
+      }
+      keep_pointers(keep, W * n, kp);
+      solve_lanes_kept<kKernel, W>(first, cells, h, stiff_h, m, s, sc, kp);
+      for (int j = 0; j < count; ++j)
+        if (hold[j] >= 0) shift_hold(b, hold[j], T(1));
+      for (int j = 0; j < count; ++j) lanes[std::size_t(j)]->start = n - cells[j];
+    }
+    const std::size_t per = std::size_t(W) * std::size_t(n);
+    store.resize(std::size_t(kKeptFactorValues) * per);
+    for (int a = 0; a < kKeepValues; ++a) std::copy(kp[a], kp[a] + per, store.data() + std::size_t(a) * per);
+    for (int i = 0; i < 36; ++i) std::copy(sc.G[i], sc.G[i] + per, store.data() + std::size_t(kKeepValues + i) * per);
+  }
+  Tc* kp[kKeepValues];
+  Tc* G[36];
+  kept_factor_pointers(store.data(), std::size_t(W) * std::size_t(n), kp, G);
+  group_contacts_through_factors<W>(b, h, cv, buf, lanes.data(), kp, G, n, gm);
+}
+
+// W_jj of contact j of rc (in the solve).
+template <class T>
+mat3<T> delassus_diagonal(const RodContacts<T>& rc, int j) {
+  mat3<T> w;
+  const T* p = rc.delassus.data() + 9 * (std::ptrdiff_t(rc.place[std::size_t(j)]) * rc.cap + rc.place[std::size_t(j)]);
+  for (int e = 0; e < 9; ++e) w.m[e] = p[e];
+  return w;
+}
+
+// The rod–rod contact solve on the rods of r (the whole batch: partners may
+// be anywhere), after the broad phase: their collider, self and rod–rod
+// contacts, the pairs made consistent by the iterations above. Every pass is
+// per rod or per job, reading its partners' data of the pass before: the
+// result does not depend on the thread count.
+// reads: model, state, contact data and lists, colliders  writes: state.node_v,
+// elem_w of the rods taking part, contact.work, contact.solve_iterations
+template <Terms kSolve, class T>
+void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const Exec& ex, const Segment& r,
+                           int thread) {
+  constexpr Terms kKernel = solve_kernel_terms(kSolve);
+  constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
+  StepWorkspace<T>& ws = *b.workspace;
+  std::vector<ContactSolveBuffer<T>>& bufs = ws.contact_solve;
+  if (ws.rod_contacts.size() < b.rods.size()) ws.rod_contacts.resize(b.rods.size());
+  if (ws.rod_moved.size() < b.rods.size()) ws.rod_moved.resize(b.rods.size());
+  std::vector<RodContacts<T>>& rcs = ws.rod_contacts;
+  const bool parallel = ex.threads > 1;
+  const int rods = r.rod_end - r.rod_begin;
+  ContactSolveBuffer<T>& own = bufs[std::size_t(thread)];
+  own.kind.assign(std::size_t(rods), 0);
+  // which rods take part: a contact acts at the free velocities, or a pair
+  // with another rod is in range (the partner may push it)
+  for_each_index(rods, parallel, ex, thread, 16, [&](int i, int) {
+    const int ri = r.rod_begin + i;
+    RodContacts<T>& rc = rcs[std::size_t(ri)];
+    rc.rod = -1;
+    rc.open = false;
+    if (!cv.colliders_in_solve(ri)) return;
+    const bool any = find_solve_contacts(b, ri, h, cv, rc);
+    if (!any && rc.pairs == 0) return;
+    rc.rod = ri;
+    own.kind[std::size_t(i)] = solve_job_kind(b, ri, ex);
+  });
+  make_solve_jobs(own, r);
+  const int jobs = int(own.jobs.size());
+  if (jobs == 0) return;
+  if (int(ws.kept_factors.size()) < jobs) ws.kept_factors.resize(std::size_t(jobs));
+  auto job = [&](int i, int t, GroupMode gm) {
+    const std::array<int, 3>& jb = own.jobs[std::size_t(i)];
+    auto& kf = ws.kept_factors[std::size_t(i)];
+    ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
+    const int* jr = own.rods.data() + jb[1];
+    if (jb[0] == 1) {
+      rod_contacts_job<kKernel, W>(b, jr, jb[2], h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), r, kf.f, kf.n,
+                                   gm, false);
+    } else if (jb[0] == 3 || jb[0] == 4) {
+      rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), r, kf.f, kf.n, gm,
+                                   jb[0] == 3);
+    } else if constexpr (sizeof(T) < sizeof(double)) {
+      if (jb[0] == 2)
+        rod_contacts_job<kKernel, kWide>(b, jr, jb[2], h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t), r,
+                                         kf.wide, kf.n, gm, false);
+      else
+        rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t), r, kf.wide,
+                                     kf.n, gm, false);
+    }
+  };
+  for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::begin); });
+  // each pair's two sides: where the other side is, and the contact's mass
+  // from both sides' shares (kernels/contact.h contact_compliance)
+  const int* part = own.rods.data();
+  const int taking = int(own.rods.size());
+  for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
+    RodContacts<T>& rc = rcs[std::size_t(part[i])];
+    for (SolveContact<T>& c : rc.contacts) {
+      if (c.kb < 0) continue;
+      const std::vector<SolveContact<T>>& other = rcs[std::size_t(c.partner)].contacts;
+      c.twin = -1;
+      for (std::size_t j = 0; j < other.size(); ++j)
+        if (other[j].k == c.kb && other[j].kb == c.k) {
+          c.twin = int(j);
+          break;
+        }
+      if (c.twin < 0) throw std::logic_error("rod_contacts_in_solve: a rod–rod pair seen from one side only");
+      const T w = c.own_compliance + other[std::size_t(c.twin)].own_compliance;
+      c.a = w > T(0) ? T(1) / w : T(0);
+    }
+  });
+  T best = T(0);
+  int best_at = 0, it = 0;
+  bool converged = false;
+  for (; it < kMaxRodIterations; ++it) {
+    // the partners' motion and blocks of the iteration before (S4)
+    for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
+      RodContacts<T>& rc = rcs[std::size_t(part[i])];
+      for (SolveContact<T>& c : rc.contacts) {
+        c.v_iter = c.in ? c.v : c.v_now;
+        if (c.kb < 0) continue;
+        const RodContacts<T>& pr = rcs[std::size_t(c.partner)];
+        const SolveContact<T>& tw = pr.contacts[std::size_t(c.twin)];
+        if (tw.in) {
+          c.wp = delassus_diagonal(pr, c.twin);
+          c.vp = tw.v - mul(c.wp, tw.p);
+        } else {
+          c.wp = mat3<T>{};
+          c.vp = tw.v_now;
+        }
+      }
+      // after the first iteration only the rods with another rod's contact move
+      rc.open = (!rc.members.empty() || !rc.joining.empty()) && (it == 0 || rc.pairs > 0);
+    });
+    for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::iterate); });
+    // each pair's mean impulse; a contact whose other side joined joins
+    for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
+      RodContacts<T>& rc = rcs[std::size_t(part[i])];
+      for (std::size_t j = 0; j < rc.contacts.size(); ++j) {
+        SolveContact<T>& c = rc.contacts[j];
+        if (c.kb < 0) continue;
+        const SolveContact<T>& tw = rcs[std::size_t(c.partner)].contacts[std::size_t(c.twin)];
+        if (c.in) {
+          c.p_mean = tw.in ? T(0.5) * (c.p - tw.p) : c.p;
+        } else if (tw.in) {
+          if (rc.joining.empty()) rc.next = 0;
+          rc.joining.push_back(int(j));
+        }
+      }
+    });
+    // the mean taken (the rod's contact velocities follow through W); the
+    // iteration's largest move of a contact velocity, over the rod's scale
+    for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
+      RodContacts<T>& rc = rcs[std::size_t(part[i])];
+      for (const int j : rc.members) {
+        SolveContact<T>& c = rc.contacts[std::size_t(j)];
+        if (c.kb < 0) continue;
+        const vec3<T> dp = c.p_mean - c.p;
+        if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) continue;
+        const T* col = rc.delassus.data() + 9 * std::ptrdiff_t(rc.place[std::size_t(j)]);
+        for (const int q : rc.members) {
+          mat3<T> wqj;
+          const T* w = col + 9 * std::ptrdiff_t(rc.place[std::size_t(q)]) * rc.cap;
+          for (int e = 0; e < 9; ++e) wqj.m[e] = w[e];
+          rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul(wqj, dp);
+        }
+        c.p = c.p_mean;
+      }
+      T moved = T(0);
+      for (const int j : rc.members) moved = std::max(moved, norm(rc.contacts[std::size_t(j)].v - rc.contacts[std::size_t(j)].v_iter));
+      ws.rod_moved[std::size_t(part[i])] =
+          moved > kContactSweepTolerance<T> * rc.scale ? (rc.scale > T(0) ? moved / rc.scale : T(1)) : T(0);
+    });
+    T worst = T(0);
+    bool joining = false;
+    for (int i = 0; i < taking; ++i) {
+      worst = std::max(worst, ws.rod_moved[std::size_t(part[i])]);
+      joining = joining || !rcs[std::size_t(part[i])].joining.empty();
+    }
+    if (!(worst > T(0)) && !joining) {
+      converged = true;
+      break;
+    }
+    if (it == 0 || worst < T(0.5) * best) {
+      best = worst;
+      best_at = it;
+    }
+    if (it - best_at >= kContactStallSweeps) break;
+  }
+  const int ran = std::min(it + 1, kMaxRodIterations);
+  b.contact.solve_iterations += ran;
+  b.contact.solve_iterations_max = std::max(b.contact.solve_iterations_max, ran);
+  ++b.contact.solve_calls;
+  if (!converged) ++b.contact.solve_unconverged;
+  for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::finish); });
+}
 }  // namespace detail
 
 // The implicit stage (host/core/step/implicit_solve.h viscous_update) with
@@ -604,7 +1008,7 @@ void viscous_update_with_contacts(RodBatch<T>& b, T h, const ColliderFrame<T>* f
                                   const Segment& r, int thread) {
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
   const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt, kSolve.rod_contact);
-  if (cv.collider_count == 0 || cv.self_in_solve != 0 || b.workspace->contact_solve.size() < std::size_t(std::max(ex.threads, thread + 1)) ||
+  if (cv.collider_count == 0 || cv.self_in_solve != 0 || cv.rods_in_solve != 0 || b.workspace->contact_solve.size() < std::size_t(std::max(ex.threads, thread + 1)) ||
       b.workspace->contact_fused.size() < b.rods.size() || b.workspace->contact_hold.size() < b.rods.size()) {
     detail::solve_segment<kKernel, 0>(b, h, ex, r, thread);
     return;
@@ -635,7 +1039,7 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
   constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
   const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt, kSolve.rod_contact);
-  if (cv.collider_count == 0 && cv.self_in_solve == 0) return;
+  if (cv.collider_count == 0 && cv.self_in_solve == 0 && cv.rods_in_solve == 0) return;
   // one buffer per thread, reserved by the driver before its parallel
   // region (host/core/step/integrators.h prepare_solve); a call from
   // elsewhere (one thread) grows them here
@@ -645,15 +1049,15 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
     if (omp_in_parallel()) throw std::logic_error("contact_solve_stage: buffers not reserved before a parallel region");
     bufs.resize(std::size_t(need));
   }
+  if (cv.rods_in_solve != 0) {  // with the rod–rod contacts: on the whole batch
+    detail::rod_contacts_in_solve<kSolve>(b, h, cv, ex, r, thread);
+    return;
+  }
   const bool parallel = ex.threads > 1 && r.rod_end - r.rod_begin > 1;
   const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
-  // which rods: 1 in a lane group, 2 in a lane group in double (a float
-  // batch's stiff rod), 3 prescribed; 4, 5: as 1, 2 but alone in one lane
-  // (a rod too long for a group in the thread's buffer, as the solve's
-  // partitioned ones)
+  // which rods, and how (detail::solve_job_kind)
   ContactSolveBuffer<T>& own = bufs[std::size_t(thread)];
   own.kind.assign(std::size_t(r.rod_end - r.rod_begin), 0);
-  const int room = b.workspace->visc_cells;
   char* fused = b.workspace->contact_fused.size() >= b.rods.size() ? b.workspace->contact_fused.data() : nullptr;
   auto which = [&](int ri, int t) {
     if (fused && fused[ri]) {  // done in the solve (viscous_update_with_contacts)
@@ -662,10 +1066,7 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
     }
     if (!cv.colliders_in_solve(ri) || !detail::find_solve_contacts(b, ri, h, cv, bufs[std::size_t(t)].lanes_for(1)[0]))
       return;
-    const RodInfo& rod = b.rods[std::size_t(ri)];
-    const bool wide = sizeof(T) < sizeof(double) && rod.stiff_implicit && ex.stiff_solve_in_double;
-    const bool fits = (wide ? kWide : W) * (rod.elements + 2) <= room;
-    own.kind[std::size_t(ri - r.rod_begin)] = char(rod.prescribed ? 3 : wide ? (fits ? 2 : 5) : (fits ? 1 : 4));
+    own.kind[std::size_t(ri - r.rod_begin)] = detail::solve_job_kind(b, ri, ex);
   };
   if (parallel) {
 #pragma omp parallel num_threads(ex.threads)
@@ -677,19 +1078,7 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
   } else {
     for (int ri = r.rod_begin; ri < r.rod_end; ++ri) which(ri, thread);
   }
-  // the jobs: {kind, first in own.rods, count}
-  own.rods.clear();
-  own.jobs.clear();
-  for (int kind = 1; kind <= 5; ++kind) {
-    const int width = kind == 1 ? W : kind == 2 ? kWide : 1;
-    for (int ri = r.rod_begin; ri < r.rod_end; ++ri) {
-      if (own.kind[std::size_t(ri - r.rod_begin)] != kind) continue;
-      if (own.jobs.empty() || own.jobs.back()[0] != kind || own.jobs.back()[2] == width)
-        own.jobs.push_back({kind, int(own.rods.size()), 0});
-      own.rods.push_back(ri);
-      ++own.jobs.back()[2];
-    }
-  }
+  detail::make_solve_jobs(own, r);
   auto job = [&](const std::array<int, 3>& jb, int t) {
     ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
     const int* rods = own.rods.data() + jb[1];

@@ -55,6 +55,7 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool
   v.rod_stiff = c.rod_stiff.data();
   v.rod_in_solve = c.rod_in_solve[solve_kv ? 1 : 0].data();
   v.self_in_solve = self_terms && c.spec.self ? 1 : 0;
+  v.rods_in_solve = self_terms && c.spec.rod_rod ? 1 : 0;
   v.neighbours = c.neighbours.data();
   v.capacity = c.capacity;
   v.hardness = T(c.spec.hardness);

@@ -81,14 +81,21 @@ enum class Part { all, before_contact, contact_solve, contact, after_contact };
 template <Terms kT, class T>
 bool solves_contacts(const RodBatch<T>& b, bool solve) {
   if constexpr (kT.colliders || kT.rod_contact)
-    return solve && ((kT.colliders && !b.contact.spec.colliders.empty()) || (kT.rod_contact && b.contact.spec.self));
+    return solve && ((kT.colliders && !b.contact.spec.colliders.empty()) ||
+                     (kT.rod_contact && (b.contact.spec.self || b.contact.spec.rod_rod)));
   return false;
 }
 // Whether the contact solve reads the broad phase's candidate lists (self
 // contact), so that it must wait for the broad phase on the whole batch.
 template <Terms kT, class T>
 bool contact_solve_reads_lists(const RodBatch<T>& b) {
-  return kT.rod_contact && b.contact.spec.self;
+  return kT.rod_contact && (b.contact.spec.self || b.contact.spec.rod_rod);
+}
+// Whether rods meet each other in the contact solve (rod–rod contact): it
+// then runs on the whole batch, not per segment.
+template <Terms kT, class T>
+bool rods_meet_in_solve(const RodBatch<T>& b) {
+  return kT.rod_contact && b.contact.spec.rod_rod;
 }
 
 // One Position Verlet step on segment r at time t, the stages in order (the
@@ -127,7 +134,7 @@ void verlet_stages(RodBatch<T>& b, T dt, double t, std::int64_t done, bool solve
   const bool late = contact_solve_reads_lists<kT>(b);
   if (part == Part::all || (part == Part::before_contact && !late) || part == Part::contact_solve) {
     if constexpr (kT.colliders || kT.rod_contact)
-      if (solves_contacts<kT>(b, solve))
+      if (solves_contacts<kT>(b, solve) && !rods_meet_in_solve<kT>(b))  // (else the driver's, on the whole batch)
         timed(e, thread, Stage::contact_solve, [&] { contact_solve_stage<kSolve>(b, dt, frames, e, r, thread); });
     // after the solve: a stiff rod's kick leaves its unresolved stiff modes in
     // the velocities, which the drag's decay must not scale (the solve would
@@ -195,8 +202,14 @@ void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, cons
       // the lists the contact solve reads (self contact), at its positions
       // (the contact stage checks them again at its velocities), then it
       if (detail::contact_solve_reads_lists<kT>(b)) {
-        if (detail::solves_contacts<kT>(b, solve))
+        if (detail::solves_contacts<kT>(b, solve)) {
           timed(ex, 0, Stage::broad_phase, [&] { update_neighbours(b, dt, ex); });
+          // rods meeting each other: the contact solve on the whole batch
+          if (detail::rods_meet_in_solve<kT>(b))
+            timed(ex, 0, Stage::contact_solve, [&] {
+              contact_solve_stage<detail::solve_terms<kT, kV>()>(b, dt, frames.data(), ex, whole(b), 0);
+            });
+        }
         for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
           detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, frames.data(), e, r, thread, Part::contact_solve);
         });

@@ -47,6 +47,7 @@ struct RodContacts {
   std::vector<T> weight, delassus, spare;
   std::vector<int> members, place, joining;
   int next = 0, cap = 0, rod = -1, first = 0, cells = 0, start = 0, low = 0;
+  int pairs = 0;  // of the contacts, those with another rod (kernels/contact_solve.h (S4))
   T scale = T(0);
   bool open = false;
 };
@@ -112,6 +113,19 @@ struct StepWorkspace {
   // [rods] the rod's reference hold in the segment being solved (−1: none),
   // for viscous_update_with_contacts (−1 outside it)
   std::vector<int> contact_hold;
+  // Rod–rod contacts in the solve (host/core/step/contact_solve.h
+  // rod_contacts_in_solve): [rods] each rod's contacts, kept over the
+  // block-Jacobi iterations between rods (rod −1: not taking part), and each
+  // lane group's kept factors (keep, then G: 88 × lanes × cells; in double
+  // for a float batch's stiff rods), the iterations' per-rod moves
+  std::vector<RodContacts<T>> rod_contacts;
+  struct KeptFactors {
+    std::vector<T> f;
+    std::vector<double> wide;
+    int n = 0;
+  };
+  std::vector<KeptFactors> kept_factors;
+  std::vector<T> rod_moved;
   // Slots whose rotation exceeded the branch-free kernels' range in the
   // current stage (host/core/step/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
