@@ -24,20 +24,18 @@
 // +p on the first, −p on the second, v_p = 0: both sides are in the rod's
 // system, so it is solved exactly, as a collider contact is.
 // A contact with another rod (element k at s against element kb at t of a
-// rod the solve also steps) acts on its own point, v_i = J_i u, against the
-// partner's point velocity v_b, which is the partner's solve: predicted, and
-// made consistent between the two by block-Jacobi iterations over the rods
-// (host/core/step/contact_solve.h). In an iteration each side takes the
-// partner as responding to this contact's impulse through its own Delassus
-// block W_b (the partner's W_jj of its side of the pair) and as moving with
-// v_b,rest (its point's velocity without this impulse, from the iteration
-// before):
+// rod the solve also steps, each side with its own record of the pair) acts
+// on the relative velocity of the two rods' points, one impulse, +p on this
+// rod and −p on the partner. Each rod's Delassus operator is its own; the
+// pair is solved with both sides' blocks and the partner's point velocity
+// without this impulse, v_b,rest:
 //   v_i − v_b = v_rest − v_b,rest + (W_ii + W_b) p,                        (S4)
-// i.e. (S1)–(S3) with v_p = v_b,rest and W_ii + W_b for W_ii (the majorized
-// Jacobi of two bodies: exact for one pair alone, in one iteration). The two
-// sides' impulses are averaged after each iteration (+p on one, −p on the
-// other: momentum is kept exactly, and the average of two impulses in the
-// cone is in it); at convergence both are the law's.
+// i.e. (S1)–(S3) with v_p = v_b,rest and W_ii + W_b for W_ii (W_b: the
+// partner's W_jj at its side of the pair). The Gauss–Seidel sweeps then run
+// over all the rods' contacts together (host/core/step/contact_solve.h
+// rod_contacts_in_solve): after each update both rods' contact velocities
+// follow through their own W, so the partner's motion is the one its
+// solve gives, and momentum is kept exactly.
 // Each contact obeys the normal law of kernels/contact.h (C1) on the point's
 // end-of-step velocity: with b = Ω² + 2ζΩ and a the contact's mass (its
 // share of its nodes, 1/a = (1 − s)² c_k/m_k + s² c_{k+1}/m_{k+1}, c_j the
@@ -113,13 +111,11 @@ struct SolveContact {
   bool in = false;             // in the solve (its Delassus column is known)
   // rod–rod (S4): the partner element's slot (another rod's), its rod, this
   // pair's place in the partner's contacts, this side's share of the
-  // contact's compliance (1/a = own + the partner's), the partner's Delassus
-  // block, this point's velocity where it is not in the solve (the last
-  // response's), and the iteration's start velocity and averaged impulse
+  // contact's compliance (1/a = own + the partner's); and this point's
+  // velocity where it is not in the solve (the last response's)
   int kb = -1, partner = -1, twin = -1;
   T own_compliance = 0;
-  mat3<T> wp{};
-  vec3<T> v_now{0, 0, 0}, v_iter{0, 0, 0}, p_mean{0, 0, 0};
+  vec3<T> v_now{0, 0, 0};
 };
 
 namespace contact_solve_detail {

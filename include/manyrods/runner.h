@@ -119,6 +119,9 @@ struct RunResult {
   // the rod–rod neighbour lists at the end: capacity and how often they grew
   int list_capacity = 0;
   std::int64_t list_growths = 0;
+  // rod–rod contacts in the implicit solve: its sweeps, the steps that ran
+  // them, and those whose sweeps stalled (ContactStats)
+  std::int64_t solve_sweeps = 0, solve_steps = 0, solve_stalled = 0;
   // the validity monitor's summary, a line per kind of violation seen
   // (empty: the run stayed in the model's range)
   std::vector<std::string> validity;

@@ -206,12 +206,12 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
 
 // What a call of group_contacts_through_factors does: solo, all of it (the
 // rods' contacts solved, their response taken); with rod–rod contacts in the
-// solve (block-Jacobi iterations between rods, contact_solve_stage), begin
-// (the contacts that act at the free velocities found, nothing solved),
-// iterate (one iteration of the rods the caller opened: the sweeps with the
-// partners' motion fixed, their response only to find contacts that join)
-// and finish (the response taken).
-enum class GroupMode { solo, begin, iterate, finish };
+// solve (rod_contacts_in_solve, which sweeps all rods' contacts together),
+// its parts: begin (the contacts that act at the free velocities join:
+// their columns of W), join (the joining contacts' columns), check (the
+// response to the impulses so far, and the contacts it makes act marked
+// joining) and finish (the response taken).
+enum class GroupMode { solo, begin, join, check, finish };
 
 // Pointers to a thread buffer's first w lanes (ContactSolveBuffer::lanes_for).
 template <class T, int W>
@@ -392,16 +392,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
         if (!c.in) continue;
         const mat3<T> wii = mat(rc, i, i);
         const vec3<T> v0 = c.v;
-        vec3<T> p;
-        if (c.kb < 0) {
-          p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
-        } else if (c.a > T(0)) {  // (S4): the partner's block added, its motion in c.vp
-          mat3<T> we = wii;
-          for (int e = 0; e < 9; ++e) we.m[e] += c.wp.m[e];
-          p = contact_local_impulse(c, we, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
-        } else {  // two held points
-          p = vec3<T>{T(0), T(0), T(0)};
-        }
+        const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
         const vec3<T> dp = p - c.p;
         if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
           for (const int j : rc.members)
@@ -447,7 +438,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     return;
   }
   // start: every rod's contacts that act at the free velocities join
-  for (int l = 0; l < (mode == GroupMode::iterate ? 0 : Wg); ++l) {
+  for (int l = 0; l < (mode == GroupMode::solo || mode == GroupMode::begin ? Wg : 0); ++l) {
     RodContacts<T>& rc = *lanes[l];
     if (rc.rod < 0) continue;
     const int nc = int(rc.contacts.size());
@@ -472,7 +463,48 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     rc.open = !rc.joining.empty();
     for (SolveContact<T>& c : rc.contacts) c.v_now = c.v;
   }
-  if (mode == GroupMode::begin) return;
+  // the contacts not in the solve of the open rods: their velocities from
+  // the response in x (kept in v_now), those that act join
+  auto check = [&](int l) {
+    RodContacts<T>& rc = *lanes[l];
+    const int nc = int(rc.contacts.size());
+    if (int(rc.members.size()) < nc)
+      for (int j = 0; j < nc; ++j) {
+        SolveContact<T>& c = rc.contacts[std::size_t(j)];
+        if (c.in) continue;
+        int cell[4];
+        double w[4];
+        const int np = points(rc, c, cell, w);
+        double dv[3] = {0, 0, 0};
+        for (int q = 0; q < np; ++q)
+          for (int d = 0; d < 3; ++d) dv[d] += w[q] * x1(l, cell[q], d);
+        const vec3<T> v = c.v + vec3<T>{T(dv[0]), T(dv[1]), T(dv[2])};
+        c.v_now = v;
+        if (!acts(c, v)) continue;
+        c.v = v;
+        if (rc.joining.empty()) rc.next = 0;
+        rc.joining.push_back(j);
+      }
+  };
+  if (mode == GroupMode::begin || mode == GroupMode::join) {
+    while (join_round()) {
+    }
+    for (int l = 0; l < Wg; ++l) {
+      lanes[l]->joining.clear();
+      lanes[l]->next = 0;
+    }
+    return;
+  }
+  if (mode == GroupMode::check) {  // (the rods whose impulses changed since their last check)
+    for (int l = 0; l < Wg; ++l) {
+      lanes[l]->open = lanes[l]->rod >= 0 && !lanes[l]->members.empty() && lanes[l]->respond;
+      lanes[l]->respond = false;
+    }
+    response();
+    for (int l = 0; l < Wg; ++l)
+      if (lanes[l]->rod >= 0 && lanes[l]->open) check(l);
+    return;
+  }
   // rounds: the joining contacts' columns; each open rod's sweeps; the
   // responses; then any contact that a rod's impulses make act joins (its
   // velocity from the response) and that rod's sweeps go on; a rod with
@@ -494,26 +526,8 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     for (int l = 0; l < Wg; ++l) {
       RodContacts<T>& rc = *lanes[l];
       if (rc.rod < 0 || !rc.open) continue;
-      const int nc = int(rc.contacts.size());
-      if (int(rc.members.size()) < nc)
-        for (int j = 0; j < nc; ++j) {
-          SolveContact<T>& c = rc.contacts[std::size_t(j)];
-          if (c.in) continue;
-          int cell[4];
-          double w[4];
-          const int np = points(rc, c, cell, w);
-          double dv[3] = {0, 0, 0};
-          for (int q = 0; q < np; ++q)
-            for (int d = 0; d < 3; ++d) dv[d] += w[q] * x1(l, cell[q], d);
-          const vec3<T> v = c.v + vec3<T>{T(dv[0]), T(dv[1]), T(dv[2])};
-          c.v_now = v;
-          if (!acts(c, v)) continue;
-          c.v = v;
-          rc.joining.push_back(j);
-        }
-      if (!rc.joining.empty()) continue;
-      if (mode == GroupMode::solo) finish(l);
-      else rc.open = false;  // this iteration's; the response comes at the end (GroupMode::finish)
+      check(l);
+      if (rc.joining.empty()) finish(l);
     }
   }
 }
@@ -736,17 +750,19 @@ void for_each_index(int count, bool parallel, const Exec& ex, int thread, int ch
 // Two rods the solve steps meet each other inside it (kernels/
 // contact_solve.h (S4)): every rod with a contact that acts or a rod–rod
 // pair in range is solved again keeping its factors (one lane group a job,
-// the factors kept for the whole stage: StepWorkspace::kept_factors), and
-// block-Jacobi iterations between the rods make the pairs consistent: in an
-// iteration every rod solves its contacts (Gauss–Seidel, as alone) with each
-// partner's motion and Delassus block from the iteration before, then each
-// pair's two impulses are averaged. They end when no rod's contact
-// velocities move by more than kContactSweepTolerance of its scale in an
-// iteration and no contact is left to join, when the moves stall (their
-// largest has not halved in kContactStallSweeps iterations) or after
-// kMaxRodIterations; then each rod takes its impulses through its factors.
+// in parallel; the factors kept for the whole stage: StepWorkspace::
+// kept_factors) and its acting contacts' columns of W are computed; then
+// projected Gauss–Seidel sweeps run over all those rods' contacts together
+// (one thread, in rod order: a pair by its lower rod, both sides' contact
+// velocities updated), until no update moves a contact velocity by more
+// than kContactSweepTolerance of its rods' scale or the sweeps stall (their
+// largest move has not halved in kContactStallSweeps); each rod's response
+// (in parallel) may make more contacts act, which join with their other
+// side and the sweeps go on; then each rod takes its impulses through its
+// factors. Gauss–Seidel on the whole problem converges where the per-rod
+// problems with the partners' motion lagged (block Jacobi) need not: a hair
+// pressed by many others on a head took the sum of their pushes at once.
 
-inline constexpr int kMaxRodIterations = 200;
 inline constexpr int kKeptFactorValues = kKeepValues + 36;  // keep, then G
 
 // A job's kept factors: keep and G, each lanes × n values, in `store`.
@@ -757,7 +773,8 @@ void kept_factor_pointers(Tc* store, std::size_t per, Tc* (&kp)[kKeepValues], Tc
 }
 
 // One job (rods[0 … count), W lanes, solved in Tc) of the rod–rod contact
-// solve in mode gm: begin solves the rods again from u⁻ (as
+// solve in mode gm: begin solves the rods again from u⁻ (their reference
+// holds in StepWorkspace::contact_hold; as
 // solve_group_with_contacts, or the scalar kernel for a rod with
 // prescribed velocities), keeps the factors in `store` (n: the group's
 // cells) and finds the contacts that act; iterate and finish take them
@@ -765,7 +782,7 @@ void kept_factor_pointers(Tc* store, std::size_t per, Tc* (&kp)[kKeepValues], Tc
 template <Terms kKernel, int W, class Tc, class T>
 void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
                       ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
-                      const Segment& r, std::vector<Tc>& store, int& n, GroupMode gm, bool prescribed) {
+                      std::vector<Tc>& store, int& n, GroupMode gm, bool prescribed) {
   std::vector<RodContacts<T>>& rcs = b.workspace->rod_contacts;
   std::array<RodContacts<T>*, W> lanes;
   RodContacts<T>* pad = buf.lanes_for(1);  // a lane short of a rod
@@ -777,7 +794,7 @@ void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const Con
     Tc* kp[kKeepValues];
     if (prescribed) {  // one rod, the scalar kernel's factors: its cells from 0, no ghost
       const RodInfo& rod = b.rods[std::size_t(rods[0])];
-      const int hold = reference_hold(b, r, rods[0]);
+      const int hold = b.workspace->contact_hold[std::size_t(rods[0])];
       restore_pre_solve(b, rods[0], cv);
       if (hold >= 0) shift_hold(b, hold, T(-1));
       n = rod.elements + 1;
@@ -801,7 +818,7 @@ void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const Con
       n += 1;  // the root ghost cell (see viscous_implicit_lanes)
       for (int j = 0; j < count; ++j) {
         restore_pre_solve(b, rods[j], cv);
-        hold[j] = reference_hold(b, r, rods[j]);
+        hold[j] = b.workspace->contact_hold[std::size_t(rods[j])];
         if (hold[j] >= 0) shift_hold(b, hold[j], T(-1));
       }
       keep_pointers(keep, W * n, kp);
@@ -821,15 +838,6 @@ void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const Con
   group_contacts_through_factors<W>(b, h, cv, buf, lanes.data(), kp, G, n, gm);
 }
 
-// W_jj of contact j of rc (in the solve).
-template <class T>
-mat3<T> delassus_diagonal(const RodContacts<T>& rc, int j) {
-  mat3<T> w;
-  const T* p = rc.delassus.data() + 9 * (std::ptrdiff_t(rc.place[std::size_t(j)]) * rc.cap + rc.place[std::size_t(j)]);
-  for (int e = 0; e < 9; ++e) w.m[e] = p[e];
-  return w;
-}
-
 // The rod–rod contact solve on the rods of r (the whole batch: partners may
 // be anywhere), after the broad phase: their collider, self and rod–rod
 // contacts, the pairs made consistent by the iterations above. Every pass is
@@ -841,11 +849,26 @@ template <Terms kSolve, class T>
 void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const Exec& ex, const Segment& r,
                            int thread) {
   constexpr Terms kKernel = solve_kernel_terms(kSolve);
-  constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
+  constexpr int W = kImplicitLanes<T>;
+  [[maybe_unused]] constexpr int kWide = kImplicitLanes<double>;
   StepWorkspace<T>& ws = *b.workspace;
   std::vector<ContactSolveBuffer<T>>& bufs = ws.contact_solve;
   if (ws.rod_contacts.size() < b.rods.size()) ws.rod_contacts.resize(b.rods.size());
-  if (ws.rod_moved.size() < b.rods.size()) ws.rod_moved.resize(b.rods.size());
+  // each rod's reference hold (a driven root: the solve runs relative to its
+  // rigid motion), over the whole batch; −1 again at the end
+  std::vector<int>& hold_of = ws.contact_hold;
+  if (hold_of.size() < b.rods.size()) hold_of.assign(b.rods.size(), -1);
+  for (std::size_t i = 0; i < b.driven.size(); ++i) {
+    const DrivenHold& d = b.driven[i];
+    if (d.reference && needs_implicit_solve(b.rods[std::size_t(d.rod)], kSolve.kelvin_voigt))
+      hold_of[std::size_t(d.rod)] = int(i);
+  }
+  struct Unhold {
+    RodBatch<T>& b;
+    ~Unhold() {
+      for (const DrivenHold& d : b.driven) b.workspace->contact_hold[std::size_t(d.rod)] = -1;
+    }
+  } unhold{b};
   std::vector<RodContacts<T>>& rcs = ws.rod_contacts;
   const bool parallel = ex.threads > 1;
   const int rods = r.rod_end - r.rod_begin;
@@ -874,17 +897,17 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
     ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
     const int* jr = own.rods.data() + jb[1];
     if (jb[0] == 1) {
-      rod_contacts_job<kKernel, W>(b, jr, jb[2], h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), r, kf.f, kf.n,
+      rod_contacts_job<kKernel, W>(b, jr, jb[2], h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), kf.f, kf.n,
                                    gm, false);
     } else if (jb[0] == 3 || jb[0] == 4) {
-      rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), r, kf.f, kf.n, gm,
+      rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), kf.f, kf.n, gm,
                                    jb[0] == 3);
     } else if constexpr (sizeof(T) < sizeof(double)) {
       if (jb[0] == 2)
-        rod_contacts_job<kKernel, kWide>(b, jr, jb[2], h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t), r,
+        rod_contacts_job<kKernel, kWide>(b, jr, jb[2], h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t),
                                          kf.wide, kf.n, gm, false);
       else
-        rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t), r, kf.wide,
+        rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t), kf.wide,
                                      kf.n, gm, false);
     }
   };
@@ -909,87 +932,144 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
       c.a = w > T(0) ? T(1) / w : T(0);
     }
   });
-  T best = T(0);
-  int best_at = 0, it = 0;
-  bool converged = false;
-  for (; it < kMaxRodIterations; ++it) {
-    // the partners' motion and blocks of the iteration before (S4)
-    for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
+  // rounds: projected Gauss–Seidel over all the rods' contacts in the solve
+  // together, in rod order, each rod's in its order, a pair by its lower
+  // rod (S4: one impulse, +p on it, −p on the partner, each side's contact
+  // velocities following through its W), until no update moves a contact
+  // velocity by more than the tolerance of its rods' scale, or the sweeps
+  // stall; then every rod's response (its factors), and the contacts it
+  // makes act join (with their other side), and the sweeps go on
+  auto block = [](RodContacts<T>& rc, int i, int j) {
+    mat3<T> w;
+    const T* p = rc.delassus.data() + 9 * (std::ptrdiff_t(rc.place[std::size_t(i)]) * rc.cap + rc.place[std::size_t(j)]);
+    for (int e = 0; e < 9; ++e) w.m[e] = p[e];
+    return w;
+  };
+  auto push = [&](RodContacts<T>& rc, int j, const vec3<T>& dp) {  // W_·j dp into rc's contact velocities
+    if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) return;
+    for (const int q : rc.members) rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul(block(rc, q, j), dp);
+  };
+  const T tol = kContactSweepTolerance<T>;
+  int sweeps = 0;
+  bool converged = true, first_round = true;
+  for (int i = 0; i < taking; ++i) rcs[std::size_t(part[i])].respond = true;
+  for (;;) {
+    // a rod's contacts are visited while its contact velocities (or, for a
+    // pair, its partner's) moved by more than the tolerance in this sweep
+    // or the last: converged rods cost a test, not an update. A rod whose
+    // largest move has not halved in kContactStallSweeps sweeps is cycling
+    // (friction, as a single rod's sweeps do): its contacts and pairs stand.
+    for (int i = 0; i < taking; ++i) {  // the first round every rod, then those with contacts that joined
       RodContacts<T>& rc = rcs[std::size_t(part[i])];
-      for (SolveContact<T>& c : rc.contacts) {
-        c.v_iter = c.in ? c.v : c.v_now;
-        if (c.kb < 0) continue;
-        const RodContacts<T>& pr = rcs[std::size_t(c.partner)];
-        const SolveContact<T>& tw = pr.contacts[std::size_t(c.twin)];
-        if (tw.in) {
-          c.wp = delassus_diagonal(pr, c.twin);
-          c.vp = tw.v - mul(c.wp, tw.p);
-        } else {
-          c.wp = mat3<T>{};
-          c.vp = tw.v_now;
+      rc.open = first_round || rc.joined;
+      rc.joined = false;
+      rc.frozen = false;
+      rc.best = T(0);
+      rc.best_at = -1;
+    }
+    first_round = false;
+    bool done = false;
+    for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep, ++sweeps) {
+      for (int i = 0; i < taking; ++i) rcs[std::size_t(part[i])].worst = T(0);
+      for (int i = 0; i < taking; ++i) {
+        RodContacts<T>& rc = rcs[std::size_t(part[i])];
+        if (rc.frozen) continue;
+        for (const int j : rc.members) {
+          SolveContact<T>& c = rc.contacts[std::size_t(j)];
+          if (c.kb < 0) {
+            if (!rc.open) continue;
+            const mat3<T> wii = block(rc, j, j);
+            const vec3<T> v0 = c.v;
+            const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
+            if (p.x != c.p.x || p.y != c.p.y || p.z != c.p.z) rc.respond = true;
+            push(rc, j, p - c.p);
+            c.p = p;
+            const T moved = norm(c.v - v0);
+            if (moved > tol * rc.scale) rc.worst = std::max(rc.worst, rc.scale > T(0) ? moved / rc.scale : T(1));
+            continue;
+          }
+          if (c.partner < part[i]) continue;  // the lower rod's
+          RodContacts<T>& pr = rcs[std::size_t(c.partner)];
+          if (pr.frozen || (!rc.open && !pr.open)) continue;
+          SolveContact<T>& tw = pr.contacts[std::size_t(c.twin)];
+          const mat3<T> wa = block(rc, j, j), wb = block(pr, c.twin, c.twin);
+          const vec3<T> rel0 = c.v - tw.v;
+          vec3<T> p{T(0), T(0), T(0)};
+          if (c.a > T(0)) {  // (not two held points)
+            c.vp = tw.v - mul(wb, tw.p);  // the partner's point without this impulse
+            mat3<T> we = wa;
+            for (int e = 0; e < 9; ++e) we.m[e] += wb.m[e];
+            p = contact_local_impulse(c, we, c.v - mul(wa, c.p), h, cv.hardness, cv.damping_ratio);
+          }
+          const vec3<T> dp = p - c.p;
+          if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0)) rc.respond = pr.respond = true;
+          push(rc, j, dp);
+          push(pr, c.twin, T(-1) * dp);
+          c.p = p;
+          tw.p = T(-1) * p;
+          const T moved = norm(c.v - tw.v - rel0), scale = std::max(rc.scale, pr.scale);
+          if (moved > tol * scale) {
+            const T ratio = scale > T(0) ? moved / scale : T(1);
+            rc.worst = std::max(rc.worst, ratio);
+            pr.worst = std::max(pr.worst, ratio);
+            pr.open = true;  // (the partner's later contacts see it in this sweep)
+          }
         }
       }
-      // after the first iteration only the rods with another rod's contact move
-      rc.open = (!rc.members.empty() || !rc.joining.empty()) && (it == 0 || rc.pairs > 0);
-    });
-    for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::iterate); });
-    // each pair's mean impulse; a contact whose other side joined joins
-    for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
-      RodContacts<T>& rc = rcs[std::size_t(part[i])];
-      for (std::size_t j = 0; j < rc.contacts.size(); ++j) {
-        SolveContact<T>& c = rc.contacts[j];
-        if (c.kb < 0) continue;
-        const SolveContact<T>& tw = rcs[std::size_t(c.partner)].contacts[std::size_t(c.twin)];
-        if (c.in) {
-          c.p_mean = tw.in ? T(0.5) * (c.p - tw.p) : c.p;
-        } else if (tw.in) {
-          if (rc.joining.empty()) rc.next = 0;
-          rc.joining.push_back(int(j));
+      bool any = false;
+      for (int i = 0; i < taking; ++i) {
+        RodContacts<T>& rc = rcs[std::size_t(part[i])];
+        if (rc.frozen) continue;
+        rc.open = rc.worst > T(0);
+        if (!rc.open) continue;
+        any = true;
+        if (rc.best_at < 0 || rc.worst < T(0.5) * rc.best) {
+          rc.best = rc.worst;
+          rc.best_at = sweep;
         }
+        if (sweep - rc.best_at >= kContactStallSweeps) rc.frozen = true;
       }
-    });
-    // the mean taken (the rod's contact velocities follow through W); the
-    // iteration's largest move of a contact velocity, over the rod's scale
-    for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
-      RodContacts<T>& rc = rcs[std::size_t(part[i])];
-      for (const int j : rc.members) {
-        SolveContact<T>& c = rc.contacts[std::size_t(j)];
-        if (c.kb < 0) continue;
-        const vec3<T> dp = c.p_mean - c.p;
-        if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) continue;
-        const T* col = rc.delassus.data() + 9 * std::ptrdiff_t(rc.place[std::size_t(j)]);
-        for (const int q : rc.members) {
-          mat3<T> wqj;
-          const T* w = col + 9 * std::ptrdiff_t(rc.place[std::size_t(q)]) * rc.cap;
-          for (int e = 0; e < 9; ++e) wqj.m[e] = w[e];
-          rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul(wqj, dp);
+      if (!any) {
+        done = true;
+        for (int i = 0; i < taking; ++i) done = done && !rcs[std::size_t(part[i])].frozen;
+        break;
+      }
+    }
+    converged = converged && done;
+    // the responses; the contacts they make act join, with their other side
+    // (a pair not in the solve is checked against its partner's point as
+    // the partner's last response left it)
+    for (int i = 0; i < taking; ++i)
+      for (SolveContact<T>& c : rcs[std::size_t(part[i])].contacts)
+        if (c.kb >= 0 && !c.in) {
+          const SolveContact<T>& tw = rcs[std::size_t(c.partner)].contacts[std::size_t(c.twin)];
+          c.vp = tw.in ? tw.v : tw.v_now;
         }
-        c.p = c.p_mean;
-      }
-      T moved = T(0);
-      for (const int j : rc.members) moved = std::max(moved, norm(rc.contacts[std::size_t(j)].v - rc.contacts[std::size_t(j)].v_iter));
-      ws.rod_moved[std::size_t(part[i])] =
-          moved > kContactSweepTolerance<T> * rc.scale ? (rc.scale > T(0) ? moved / rc.scale : T(1)) : T(0);
-    });
-    T worst = T(0);
+    for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::check); });
     bool joining = false;
     for (int i = 0; i < taking; ++i) {
-      worst = std::max(worst, ws.rod_moved[std::size_t(part[i])]);
-      joining = joining || !rcs[std::size_t(part[i])].joining.empty();
+      RodContacts<T>& rc = rcs[std::size_t(part[i])];
+      for (std::size_t q = 0; q < rc.joining.size(); ++q) {
+        const SolveContact<T>& c = rc.contacts[std::size_t(rc.joining[q])];
+        if (c.kb < 0) continue;
+        RodContacts<T>& pr = rcs[std::size_t(c.partner)];
+        SolveContact<T>& tw = pr.contacts[std::size_t(c.twin)];
+        if (tw.in || std::find(pr.joining.begin(), pr.joining.end(), c.twin) != pr.joining.end()) continue;
+        if (pr.joining.empty()) pr.next = 0;
+        pr.joining.push_back(c.twin);
+        tw.v = tw.v_now;  // its velocity from its rod's response
+      }
+      joining = joining || !rc.joining.empty();
     }
-    if (!(worst > T(0)) && !joining) {
-      converged = true;
-      break;
+    for (int i = 0; i < taking; ++i) {
+      RodContacts<T>& rc = rcs[std::size_t(part[i])];
+      rc.joined = !rc.joining.empty();
     }
-    if (it == 0 || worst < T(0.5) * best) {
-      best = worst;
-      best_at = it;
-    }
-    if (it - best_at >= kContactStallSweeps) break;
+    if (!joining) break;
+    for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::join); });
   }
-  const int ran = std::min(it + 1, kMaxRodIterations);
-  b.contact.solve_iterations += ran;
-  b.contact.solve_iterations_max = std::max(b.contact.solve_iterations_max, ran);
+  b.contact.solve_iterations += sweeps;
+  b.contact.solve_iterations_max = std::max(b.contact.solve_iterations_max, sweeps);
   ++b.contact.solve_calls;
   if (!converged) ++b.contact.solve_unconverged;
   for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::finish); });
@@ -1037,7 +1117,8 @@ template <Terms kSolve, class T>
 void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, const Exec& ex, const Segment& r,
                          int thread) {
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
-  constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
+  constexpr int W = kImplicitLanes<T>;
+  [[maybe_unused]] constexpr int kWide = kImplicitLanes<double>;
   const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt, kSolve.rod_contact);
   if (cv.collider_count == 0 && cv.self_in_solve == 0 && cv.rods_in_solve == 0) return;
   // one buffer per thread, reserved by the driver before its parallel

@@ -50,6 +50,12 @@ struct RodContacts {
   int pairs = 0;  // of the contacts, those with another rod (kernels/contact_solve.h (S4))
   T scale = T(0);
   bool open = false;
+  // rod–rod contacts in the solve (sweeps over all rods): its largest move
+  // in this sweep, its smallest so far and when, and whether it stalled
+  T worst = T(0), best = T(0);
+  int best_at = -1;
+  bool frozen = false;
+  bool respond = false, joined = false;  // its impulses changed since its last response; contacts joined
 };
 
 // One thread's buffers of the contact solve (host/core/step/contact_solve.h):
@@ -115,9 +121,9 @@ struct StepWorkspace {
   std::vector<int> contact_hold;
   // Rod–rod contacts in the solve (host/core/step/contact_solve.h
   // rod_contacts_in_solve): [rods] each rod's contacts, kept over the
-  // block-Jacobi iterations between rods (rod −1: not taking part), and each
+  // sweeps through all rods' contacts (rod −1: not taking part), and each
   // lane group's kept factors (keep, then G: 88 × lanes × cells; in double
-  // for a float batch's stiff rods), the iterations' per-rod moves
+  // for a float batch's stiff rods)
   std::vector<RodContacts<T>> rod_contacts;
   struct KeptFactors {
     std::vector<T> f;
@@ -125,7 +131,6 @@ struct StepWorkspace {
     int n = 0;
   };
   std::vector<KeptFactors> kept_factors;
-  std::vector<T> rod_moved;
   // Slots whose rotation exceeded the branch-free kernels' range in the
   // current stage (host/core/step/launch.h launch_with_fallback).
   Array<int> flags;  // int, not char: a char store may alias the view pointers and stops vectorization
