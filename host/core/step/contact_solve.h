@@ -874,19 +874,31 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
   const int rods = r.rod_end - r.rod_begin;
   ContactSolveBuffer<T>& own = bufs[std::size_t(thread)];
   own.kind.assign(std::size_t(rods), 0);
-  // which rods take part: a contact acts at the free velocities, or a pair
-  // with another rod is in range (the partner may push it)
+  // which rods take part: those with a contact that acts at the free
+  // velocities, and every rod a pair in range joins to one of them (its
+  // partner may push it, and its partners then: the rods connected to one
+  // by pairs in range). A tight bundle at rest with no contact that acts
+  // takes no part.
   for_each_index(rods, parallel, ex, thread, 16, [&](int i, int) {
     const int ri = r.rod_begin + i;
     RodContacts<T>& rc = rcs[std::size_t(ri)];
     rc.rod = -1;
     rc.open = false;
+    rc.pairs = 0;
     if (!cv.colliders_in_solve(ri)) return;
-    const bool any = find_solve_contacts(b, ri, h, cv, rc);
-    if (!any && rc.pairs == 0) return;
-    rc.rod = ri;
-    own.kind[std::size_t(i)] = solve_job_kind(b, ri, ex);
+    if (find_solve_contacts(b, ri, h, cv, rc)) rc.rod = ri;
   });
+  std::vector<int>& reach = own.rods;  // (a queue here; the jobs' rods below)
+  reach.clear();
+  for (int ri = r.rod_begin; ri < r.rod_end; ++ri)
+    if (rcs[std::size_t(ri)].rod >= 0) reach.push_back(ri);
+  for (std::size_t q = 0; q < reach.size(); ++q)
+    for (const SolveContact<T>& c : rcs[std::size_t(reach[q])].contacts)
+      if (c.kb >= 0 && rcs[std::size_t(c.partner)].rod < 0) {
+        rcs[std::size_t(c.partner)].rod = c.partner;
+        reach.push_back(c.partner);
+      }
+  for (const int ri : reach) own.kind[std::size_t(ri - r.rod_begin)] = solve_job_kind(b, ri, ex);
   make_solve_jobs(own, r);
   const int jobs = int(own.jobs.size());
   if (jobs == 0) return;
