@@ -570,17 +570,18 @@ MANYRODS_NOINLINE void solve_lanes_kept(const int* first, const int* cells, T h,
   viscous_implicit_lanes<kKernel, W, true>(first, cells, h, stiff_h, m, s, sc, keep);
 }
 
-// Rods rods[0 … count) (count ≤ W, each with a contact that acts)
-// solved again from u⁻ as one lane group of W lanes in Tc (kernels/
-// viscous_implicit_lanes.h, as the solve does, its factors kept), then each
-// rod's contacts through its lane's factors.
-template <Terms kKernel, int W, class Tc, class T>
-void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
-                               ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
-                               const Segment& r) {
+// Rods rods[0 … count) (count ≤ W) solved again from u⁻ as one lane group
+// of W lanes in Tc (kernels/viscous_implicit_lanes.h, as the solve does; a
+// group short of W fills up with its last rod), each rod relative to its
+// reference hold hold_of(rod) (−1: none), the factors kept in `keep`
+// (pointers kp); returns the group's cells (with the root ghost), each
+// lane's cells in `cells`.
+template <Terms kKernel, int W, class Tc, class T, class HoldOf>
+int solve_group_again(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv, std::vector<Tc>& keep,
+                      const ImplicitScratchView<Tc>& sc, Tc* (&kp)[kKeepValues], int (&cells)[W], HoldOf&& hold_of) {
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
-  int first[W], cells[W], hold[W], n = 0;  // hold: each rod's reference hold, or −1
+  int first[W], hold[W], n = 0;  // hold: each rod's reference hold, or −1
   T stiff_h[W];
   for (int j = 0; j < W; ++j) {  // a group short of W fills up with its last rod
     hold[j] = -1;
@@ -593,14 +594,28 @@ void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, 
   n += 1;  // the root ghost cell (see viscous_implicit_lanes)
   for (int j = 0; j < count; ++j) {
     restore_pre_solve(b, rods[j], cv);
-    hold[j] = reference_hold(b, r, rods[j]);
+    hold[j] = hold_of(rods[j]);
     if (hold[j] >= 0) shift_hold(b, hold[j], T(-1));
   }
-  Tc* kp[kKeepValues];
   keep_pointers(keep, W * n, kp);
   solve_lanes_kept<kKernel, W>(first, cells, h, stiff_h, m, s, sc, kp);
   for (int j = 0; j < count; ++j)
     if (hold[j] >= 0) shift_hold(b, hold[j], T(1));
+  return n;
+}
+
+// Rods rods[0 … count) (count ≤ W, each with a contact that acts)
+// solved again from u⁻ as one lane group of W lanes in Tc (kernels/
+// viscous_implicit_lanes.h, as the solve does, its factors kept), then each
+// rod's contacts through its lane's factors.
+template <Terms kKernel, int W, class Tc, class T>
+void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
+                               ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
+                               const Segment& r) {
+  int cells[W];
+  Tc* kp[kKeepValues];
+  const int n = solve_group_again<kKernel, W>(b, rods, count, h, cv, keep, sc, kp, cells,
+                                              [&](int ri) { return reference_hold(b, r, ri); });
   RodContacts<T>* lanes = buf.lanes_for(W);
   bool any = false;
   for (int j = 0; j < W; ++j) {
@@ -804,27 +819,9 @@ void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const Con
       if (hold >= 0) shift_hold(b, hold, T(1));
       lanes[0]->start = 0;
     } else {
-      int first[W], cells[W], hold[W];
-      T stiff_h[W];
-      n = 0;
-      for (int j = 0; j < W; ++j) {  // a group short of W fills up with its last rod
-        hold[j] = -1;
-        const RodInfo& rod = b.rods[std::size_t(rods[j < count ? j : count - 1])];
-        first[j] = rod.offset + 1;
-        cells[j] = rod.elements + 1;
-        stiff_h[j] = rod.stiff_implicit ? h : T(0);
-        n = std::max(n, cells[j]);
-      }
-      n += 1;  // the root ghost cell (see viscous_implicit_lanes)
-      for (int j = 0; j < count; ++j) {
-        restore_pre_solve(b, rods[j], cv);
-        hold[j] = b.workspace->contact_hold[std::size_t(rods[j])];
-        if (hold[j] >= 0) shift_hold(b, hold[j], T(-1));
-      }
-      keep_pointers(keep, W * n, kp);
-      solve_lanes_kept<kKernel, W>(first, cells, h, stiff_h, m, s, sc, kp);
-      for (int j = 0; j < count; ++j)
-        if (hold[j] >= 0) shift_hold(b, hold[j], T(1));
+      int cells[W];
+      n = solve_group_again<kKernel, W>(b, rods, count, h, cv, keep, sc, kp, cells,
+                                        [&](int ri) { return b.workspace->contact_hold[std::size_t(ri)]; });
       for (int j = 0; j < count; ++j) lanes[std::size_t(j)]->start = n - cells[j];
     }
     const std::size_t per = std::size_t(W) * std::size_t(n);
