@@ -1085,10 +1085,10 @@ double stiff_hair_onto_another(double h) {
     }
     const ContactStats cs = contact_stats(b);
     std::printf("stiff hair onto a stiff hair (%s) at h = %g: highest rise of K + E + U %.3g of m g × 0.1 m; "
-                "iterations %.3g a step on average, at most %d, %lld of %lld steps unconverged; "
+                "sweeps %.3g a step on average, at most %d, %lld of %lld steps stalled; "
                 "impulse imbalance %.3g of their sum\n",
-                sizeof(T) == 4 ? "float" : "double", h, rise / (rod_mass(b, 0) * kG * 0.1), double(cs.solve_iterations) / double(std::max<std::int64_t>(cs.solve_steps, 1)),
-                cs.solve_iterations_max, (long long)cs.solve_unconverged, (long long)cs.solve_steps, imbalance / sum);
+                sizeof(T) == 4 ? "float" : "double", h, rise / (rod_mass(b, 0) * kG * 0.1), double(cs.solve_sweeps) / double(std::max<std::int64_t>(cs.solve_steps, 1)),
+                cs.solve_sweeps_max, (long long)cs.solve_stalled, (long long)cs.solve_steps, imbalance / sum);
     EXPECT_GT(sum, 0.0);  // they touched
     // opposite impulses (round-off of the node sums; float: its rounding)
     EXPECT_LE(imbalance, (sizeof(T) == 4 ? 1e-5 : 1e-12) * sum);
@@ -1135,7 +1135,7 @@ TEST(Contact, RodsMeetingInTheirSolveKeepTheirMomentum) {
   for (int d = 0; d < 3; ++d) EXPECT_NEAR(pa[d] + pb[d], p0[d], 1e-12 * std::abs(p0[2])) << d;
   EXPECT_LT(energies<kRodContact>(b).contact_work, 0);
   if (!friction) {
-    EXPECT_EQ(contact_stats(b).solve_unconverged, 0);
+    EXPECT_EQ(contact_stats(b).solve_stalled, 0);
   }
   }
 }

@@ -159,8 +159,8 @@ struct ContactData {
   // implicit solve"): the sweeps through the rods' contacts so far, the
   // steps they ran in, the most one step took, and the steps that ended
   // without converging (their moves stalled)
-  std::int64_t solve_iterations = 0, solve_calls = 0, solve_unconverged = 0;
-  int solve_iterations_max = 0;
+  std::int64_t solve_sweeps = 0, solve_steps = 0, solve_stalled = 0;
+  int solve_sweeps_max = 0;
 };
 
 // Contacts now (recomputed from the state; for outputs, not for the step).
@@ -174,8 +174,8 @@ struct ContactStats {
   // rod–rod contacts in the solve: the sweeps through the rods' contacts so
   // far, the steps that ran them, the most in one step, the steps that did
   // not converge (the sweeps stalled)
-  std::int64_t solve_iterations = 0, solve_steps = 0, solve_unconverged = 0;
-  int solve_iterations_max = 0;
+  std::int64_t solve_sweeps = 0, solve_steps = 0, solve_stalled = 0;
+  int solve_sweeps_max = 0;
 };
 
 template <class T>

@@ -247,8 +247,8 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
 #undef MANYRODS_CONTACT_ALLOCATE_OWN
   c.capacity = spec.capacity;
   c.list_growths = 0;
-  c.solve_iterations = c.solve_calls = c.solve_unconverged = 0;
-  c.solve_iterations_max = 0;
+  c.solve_sweeps = c.solve_steps = c.solve_stalled = 0;
+  c.solve_sweeps_max = 0;
   if (spec.rod_rod || spec.self) c.neighbours.resize(n * std::size_t(c.capacity), -1);
   c.rod_mu.assign(4 * std::size_t(b.rod_count()), T(0));
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);
@@ -288,10 +288,10 @@ ContactStats contact_stats(const RodBatch<T>& b, int rod_begin, int rod_end) {
   st.rebuilds = c.rebuilds;
   st.list_capacity = c.capacity;
   st.list_growths = c.list_growths;
-  st.solve_iterations = c.solve_iterations;
-  st.solve_steps = c.solve_calls;
-  st.solve_unconverged = c.solve_unconverged;
-  st.solve_iterations_max = c.solve_iterations_max;
+  st.solve_sweeps = c.solve_sweeps;
+  st.solve_steps = c.solve_steps;
+  st.solve_stalled = c.solve_stalled;
+  st.solve_sweeps_max = c.solve_sweeps_max;
   std::vector<ColliderFrame<T>> frames(c.spec.colliders.size());
   place_colliders(c, b.state.time, 0.0, frames.data());
   const ConstStateView<T> s = b.state_view();

@@ -1,5 +1,5 @@
-// host/core/step/contact_solve.h — collider and self contacts inside the
-// implicit solve (kernels/contact_solve.h; docs/contact.md "Contact inside
+// host/core/step/contact_solve.h — collider, self and rod–rod contacts
+// inside the implicit solve (kernels/contact_solve.h; docs/contact.md "Contact inside
 // the implicit solve"):
 //
 //   contact_solve_save           the velocities before the solve (u⁻), per slot
@@ -19,7 +19,12 @@
 //                                and, if one acts, is solved again from u⁻
 //                                keeping its factors, and its contacts'
 //                                impulses are solved with its Delassus
-//                                operator and taken through the factors
+//                                operator and taken through the factors;
+//                                with rod–rod contact, on the whole batch,
+//   rod_contacts_in_solve        every rod with a contact that acts and the
+//                                rods pairs join to it, solved again keeping
+//                                its factors, their contacts (colliders,
+//                                self, other rods) swept together
 //
 // A rod no collider reaches pays one pass over its elements. A rod with a
 // reference hold (a driven root) is solved relative to the hold's rigid
@@ -204,6 +209,45 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
   return any;
 }
 
+// W_ij of rod contacts i, j in the solve (RodContacts::delassus: the
+// block of members at places a = place[i], b = place[j] at 9 (a cap + b),
+// row-major), where it is stored and as a matrix.
+template <class T>
+T* delassus_at(RodContacts<T>& rc, int i, int j) {
+  return rc.delassus.data() + 9 * (std::ptrdiff_t(rc.place[std::size_t(i)]) * rc.cap + rc.place[std::size_t(j)]);
+}
+template <class T>
+mat3<T> delassus_block(RodContacts<T>& rc, int i, int j) {
+  mat3<T> r;
+  const T* w = delassus_at(rc, i, j);
+  for (int e = 0; e < 9; ++e) r.m[e] = w[e];
+  return r;
+}
+
+// Rod rc's contact velocities after an impulse change dp at contact j:
+// v_q += W_qj dp for every contact q in the solve.
+template <class T>
+void add_delassus_column(RodContacts<T>& rc, int j, vec3<T> dp) {
+  if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) return;
+  for (const int q : rc.members)
+    rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul(delassus_block(rc, q, j), dp);
+}
+
+// One Gauss–Seidel update of rod rc's contact i (a collider or self
+// contact in the solve): its impulse from its law (kernels/contact_solve.h
+// (S1)–(S3)) with the others' fixed, the rod's contact velocities through
+// W's column i; returns how far its own velocity moved.
+template <class T>
+T sweep_contact(RodContacts<T>& rc, int i, T h, const ContactView<T>& cv) {
+  SolveContact<T>& c = rc.contacts[std::size_t(i)];
+  const mat3<T> wii = delassus_block(rc, i, i);
+  const vec3<T> v0 = c.v;
+  const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
+  add_delassus_column(rc, i, p - c.p);
+  c.p = p;
+  return norm(c.v - v0);
+}
+
 // What a call of group_contacts_through_factors does: solo, all of it (the
 // rods' contacts solved, their response taken); with rod–rod contacts in the
 // solve (rod_contacts_in_solve, which sweeps all rods' contacts together),
@@ -242,13 +286,10 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   // The contacts in the solve of a rod (in: those that act on their own at
   // the free velocities, then any the others' impulses make act) are its
   // `members`, in the order they joined; W over them only: W_ij = J_i A⁻¹ J_jᵀ
-  // of members at places a = place[i], b = place[j] is the block at
-  // 9 (a cap + b), row-major. A contact in range that never acts costs no
+  // (delassus_at). A contact in range that never acts costs no
   // column and no row (a coiled rod has hundreds of near self pairs in
   // range, a tenth of them acting).
-  auto block = [](RodContacts<T>& rc, int i, int j) {
-    return rc.delassus.data() + 9 * (std::ptrdiff_t(rc.place[std::size_t(i)]) * rc.cap + rc.place[std::size_t(j)]);
-  };
+  auto block = [](RodContacts<T>& rc, int i, int j) { return delassus_at(rc, i, j); };
   auto reserve = [](RodContacts<T>& rc, int need) {  // room for `need` members (grown by doubling, kept across rods)
     if (need <= rc.cap) return;
     const int grown = std::max({need, 2 * rc.cap, 16});
@@ -344,12 +385,6 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     }
     return true;
   };
-  auto mat = [&](RodContacts<T>& rc, int i, int j) {
-    mat3<T> r;
-    const T* w = block(rc, i, j);
-    for (int e = 0; e < 9; ++e) r.m[e] = w[e];
-    return r;
-  };
   // the rods' responses to their impulses, Δu = A⁻¹ Σ J_iᵀ p_i, into x
   // (1 column), for the lanes in `open`
   auto response = [&]() {
@@ -387,19 +422,8 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     int best_at = 0;
     for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep) {
       T moved = T(0);
-      for (int i = 0; i < nc; ++i) {
-        SolveContact<T>& c = rc.contacts[std::size_t(i)];
-        if (!c.in) continue;
-        const mat3<T> wii = mat(rc, i, i);
-        const vec3<T> v0 = c.v;
-        const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
-        const vec3<T> dp = p - c.p;
-        if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0))
-          for (const int j : rc.members)
-            rc.contacts[std::size_t(j)].v = rc.contacts[std::size_t(j)].v + mul(mat(rc, j, i), dp);
-        c.p = p;
-        moved = std::max(moved, norm(c.v - v0));
-      }
+      for (int i = 0; i < nc; ++i)
+        if (rc.contacts[std::size_t(i)].in) moved = std::max(moved, sweep_contact(rc, i, h, cv));
       if (!(moved > kContactSweepTolerance<T> * rc.scale)) break;
       if (sweep == 0 || moved < T(0.5) * best) {
         best = moved;
@@ -626,6 +650,22 @@ void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, 
   if (any) group_contacts_through_factors<W>(b, h, cv, buf, lane_pointers<T, W>(buf).data(), kp, sc.G, n);
 }
 
+// Rod ri with prescribed velocities solved again from u⁻ with the scalar
+// kernel (its delta form, as the solve takes it), relative to its reference
+// hold `hold` (−1: none), the factors kept in `keep` (pointers kp; the
+// rod's cells from 0, no ghost).
+template <Terms kKernel, class T>
+void solve_rod_again(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, std::vector<T>& keep,
+                     const ImplicitScratchView<T>& sc, T* (&kp)[kKeepValues], int hold) {
+  const RodInfo& rod = b.rods[std::size_t(ri)];
+  restore_pre_solve(b, ri, cv);
+  if (hold >= 0) shift_hold(b, hold, T(-1));
+  keep_pointers(keep, rod.elements + 1, kp);
+  viscous_implicit_rod<kKernel>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), b.model_view(),
+                                b.state_view(), sc, kp);
+  if (hold >= 0) shift_hold(b, hold, T(1));
+}
+
 // Rod ri with prescribed velocities (the scalar kernel, as the solve takes
 // it: its delta form), solved again from u⁻ with its factors kept, then
 // its contacts through them.
@@ -633,14 +673,8 @@ template <Terms kKernel, class T>
 void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf,
                                     const ImplicitScratchView<T>& sc, const Segment& r) {
   const RodInfo& rod = b.rods[std::size_t(ri)];
-  const int hold = reference_hold(b, r, ri);
-  restore_pre_solve(b, ri, cv);
-  if (hold >= 0) shift_hold(b, hold, T(-1));
   T* kp[kKeepValues];
-  keep_pointers(buf.keep, rod.elements + 1, kp);
-  viscous_implicit_rod<kKernel>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), b.model_view(),
-                                b.state_view(), sc, kp);
-  if (hold >= 0) shift_hold(b, hold, T(1));
+  solve_rod_again<kKernel>(b, ri, h, cv, buf.keep, sc, kp, reference_hold(b, r, ri));
   RodContacts<T>& one = buf.lanes_for(1)[0];
   one.rod = find_solve_contacts(b, ri, h, cv, one) ? ri : -1;
   one.start = 0;  // (the scalar kernel's factors: the rod's cells from 0, no ghost)
@@ -768,7 +802,7 @@ void for_each_index(int count, bool parallel, const Exec& ex, int thread, int ch
 // in parallel; the factors kept for the whole stage: StepWorkspace::
 // kept_factors) and its acting contacts' columns of W are computed; then
 // projected Gauss–Seidel sweeps run over all those rods' contacts together
-// (one thread, in rod order: a pair by its lower rod, both sides' contact
+// (one thread, rod by rod: a pair by its lower rod, both sides' contact
 // velocities updated), until no update moves a contact velocity by more
 // than kContactSweepTolerance of its rods' scale or the sweeps stall (their
 // largest move has not halved in kContactStallSweeps); each rod's response
@@ -792,8 +826,8 @@ void kept_factor_pointers(Tc* store, std::size_t per, Tc* (&kp)[kKeepValues], Tc
 // holds in StepWorkspace::contact_hold; as
 // solve_group_with_contacts, or the scalar kernel for a rod with
 // prescribed velocities), keeps the factors in `store` (n: the group's
-// cells) and finds the contacts that act; iterate and finish take them
-// from there (group_contacts_through_factors).
+// cells) and joins the contacts that act; join, check and finish take them
+// from there (group_contacts_through_factors, GroupMode).
 template <Terms kKernel, int W, class Tc, class T>
 void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
                       ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
@@ -804,19 +838,11 @@ void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const Con
   pad->rod = -1;
   for (int j = 0; j < W; ++j) lanes[std::size_t(j)] = j < count ? &rcs[std::size_t(rods[j])] : pad;
   if (gm == GroupMode::begin) {
-    const ModelView<T> m = b.model_view();
-    const StateView<T> s = b.state_view();
     Tc* kp[kKeepValues];
     if (prescribed) {  // one rod, the scalar kernel's factors: its cells from 0, no ghost
-      const RodInfo& rod = b.rods[std::size_t(rods[0])];
-      const int hold = b.workspace->contact_hold[std::size_t(rods[0])];
-      restore_pre_solve(b, rods[0], cv);
-      if (hold >= 0) shift_hold(b, hold, T(-1));
-      n = rod.elements + 1;
-      keep_pointers(keep, n, kp);
       if constexpr (std::is_same_v<Tc, T>)
-        viscous_implicit_rod<kKernel>(rod.offset + 1, n, h, rod.stiff_implicit ? h : T(0), m, s, sc, kp);
-      if (hold >= 0) shift_hold(b, hold, T(1));
+        solve_rod_again<kKernel>(b, rods[0], h, cv, keep, sc, kp, b.workspace->contact_hold[std::size_t(rods[0])]);
+      n = b.rods[std::size_t(rods[0])].elements + 1;
       lanes[0]->start = 0;
     } else {
       int cells[W];
@@ -837,11 +863,11 @@ void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const Con
 
 // The rod–rod contact solve on the rods of r (the whole batch: partners may
 // be anywhere), after the broad phase: their collider, self and rod–rod
-// contacts, the pairs made consistent by the iterations above. Every pass is
-// per rod or per job, reading its partners' data of the pass before: the
-// result does not depend on the thread count.
+// contacts, swept together as above. The parallel passes are per rod or per
+// job, each writing its own rods; the sweeps run on one thread, in the
+// jobs' order of the rods: the result does not depend on the thread count.
 // reads: model, state, contact data and lists, colliders  writes: state.node_v,
-// elem_w of the rods taking part, contact.work, contact.solve_iterations
+// elem_w of the rods taking part, contact.work, contact.solve_sweeps
 template <Terms kSolve, class T>
 void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const Exec& ex, const Segment& r,
                            int thread) {
@@ -942,22 +968,13 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
     }
   });
   // rounds: projected Gauss–Seidel over all the rods' contacts in the solve
-  // together, in rod order, each rod's in its order, a pair by its lower
+  // together, rod by rod in the jobs' order (by kind, then by index), each
+  // rod's in the order they joined, a pair by its lower
   // rod (S4: one impulse, +p on it, −p on the partner, each side's contact
   // velocities following through its W), until no update moves a contact
   // velocity by more than the tolerance of its rods' scale, or the sweeps
   // stall; then every rod's response (its factors), and the contacts it
   // makes act join (with their other side), and the sweeps go on
-  auto block = [](RodContacts<T>& rc, int i, int j) {
-    mat3<T> w;
-    const T* p = rc.delassus.data() + 9 * (std::ptrdiff_t(rc.place[std::size_t(i)]) * rc.cap + rc.place[std::size_t(j)]);
-    for (int e = 0; e < 9; ++e) w.m[e] = p[e];
-    return w;
-  };
-  auto push = [&](RodContacts<T>& rc, int j, const vec3<T>& dp) {  // W_·j dp into rc's contact velocities
-    if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) return;
-    for (const int q : rc.members) rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul(block(rc, q, j), dp);
-  };
   const T tol = kContactSweepTolerance<T>;
   int sweeps = 0;
   bool converged = true, first_round = true;
@@ -987,13 +1004,9 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
           SolveContact<T>& c = rc.contacts[std::size_t(j)];
           if (c.kb < 0) {
             if (!rc.open) continue;
-            const mat3<T> wii = block(rc, j, j);
-            const vec3<T> v0 = c.v;
-            const vec3<T> p = contact_local_impulse(c, wii, c.v - mul(wii, c.p), h, cv.hardness, cv.damping_ratio);
-            if (p.x != c.p.x || p.y != c.p.y || p.z != c.p.z) rc.respond = true;
-            push(rc, j, p - c.p);
-            c.p = p;
-            const T moved = norm(c.v - v0);
+            const vec3<T> p0 = c.p;
+            const T moved = sweep_contact(rc, j, h, cv);
+            if (c.p.x != p0.x || c.p.y != p0.y || c.p.z != p0.z) rc.respond = true;
             if (moved > tol * rc.scale) rc.worst = std::max(rc.worst, rc.scale > T(0) ? moved / rc.scale : T(1));
             continue;
           }
@@ -1001,7 +1014,7 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
           RodContacts<T>& pr = rcs[std::size_t(c.partner)];
           if (pr.frozen || (!rc.open && !pr.open)) continue;
           SolveContact<T>& tw = pr.contacts[std::size_t(c.twin)];
-          const mat3<T> wa = block(rc, j, j), wb = block(pr, c.twin, c.twin);
+          const mat3<T> wa = delassus_block(rc, j, j), wb = delassus_block(pr, c.twin, c.twin);
           const vec3<T> rel0 = c.v - tw.v;
           vec3<T> p{T(0), T(0), T(0)};
           if (c.a > T(0)) {  // (not two held points)
@@ -1012,8 +1025,8 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
           }
           const vec3<T> dp = p - c.p;
           if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0)) rc.respond = pr.respond = true;
-          push(rc, j, dp);
-          push(pr, c.twin, T(-1) * dp);
+          add_delassus_column(rc, j, dp);
+          add_delassus_column(pr, c.twin, T(-1) * dp);
           c.p = p;
           tw.p = T(-1) * p;
           const T moved = norm(c.v - tw.v - rel0), scale = std::max(rc.scale, pr.scale);
@@ -1077,10 +1090,10 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
     if (!joining) break;
     for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::join); });
   }
-  b.contact.solve_iterations += sweeps;
-  b.contact.solve_iterations_max = std::max(b.contact.solve_iterations_max, sweeps);
-  ++b.contact.solve_calls;
-  if (!converged) ++b.contact.solve_unconverged;
+  b.contact.solve_sweeps += sweeps;
+  b.contact.solve_sweeps_max = std::max(b.contact.solve_sweeps_max, sweeps);
+  ++b.contact.solve_steps;
+  if (!converged) ++b.contact.solve_stalled;
   for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::finish); });
 }
 }  // namespace detail

@@ -362,9 +362,9 @@ class SceneRun {
       res_.max_contacts = std::max(res_.max_contacts, cs.contacts);
       res_.list_capacity = cs.list_capacity;
       res_.list_growths = cs.list_growths;
-      res_.solve_sweeps = cs.solve_iterations;
+      res_.solve_sweeps = cs.solve_sweeps;
       res_.solve_steps = cs.solve_steps;
-      res_.solve_stalled = cs.solve_unconverged;
+      res_.solve_stalled = cs.solve_stalled;
       res_.max_penetration = std::max(res_.max_penetration, cs.max_penetration);
     }
     w.append_frame(b_.state.time, pos_.data(), dir_.data(), row);
