@@ -40,6 +40,7 @@
 #include <array>
 #include <chrono>
 #include <cstddef>
+#include <functional>
 #include <stdexcept>
 #include <type_traits>
 
@@ -225,12 +226,22 @@ mat3<T> delassus_block(RodContacts<T>& rc, int i, int j) {
 }
 
 // Rod rc's contact velocities after an impulse change dp at contact j:
-// v_q += W_qj dp for every contact q in the solve.
+// v_q += W_qj dp for every contact q in the solve. W_qj is read as W_jqᵀ,
+// which is stored as its exact transpose (group_contacts_through_factors
+// join_round: W_jj symmetrized, W_ji copied from W_ij), so the result is
+// the same to the bit; W_jq for all q is row j, contiguous (members[m] is
+// at place m), where column j is strided by the capacity.
 template <class T>
 void add_delassus_column(RodContacts<T>& rc, int j, vec3<T> dp) {
   if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) return;
-  for (const int q : rc.members)
-    rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul(delassus_block(rc, q, j), dp);
+  const T* row = delassus_at(rc, j, rc.members.empty() ? j : rc.members[0]);
+  const std::size_t m = rc.members.size();
+  for (std::size_t q = 0; q < m; ++q, row += 9) {
+    mat3<T> w;
+    for (int e = 0; e < 9; ++e) w.m[e] = row[e];
+    SolveContact<T>& c = rc.contacts[std::size_t(rc.members[q])];
+    c.v = c.v + mul_transpose(w, dp);
+  }
 }
 
 // One Gauss–Seidel update of rod rc's contact i (a collider or self
@@ -979,10 +990,45 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
   int sweeps = 0;
   bool converged = true, first_round = true;
   for (int i = 0; i < taking; ++i) rcs[std::size_t(part[i])].respond = true;
+  // A sweep visits only the rods that can change: those open, and those
+  // with a pair (which they own, as its lower rod) whose partner is open, at
+  // their turn. A rod that opens during a sweep (a partner's update moved
+  // it) is queued then, with its partners, if their turn is still to come:
+  // the same updates in the same order as a sweep over every rod, without
+  // the rods at rest (most of a groom, after its first sweeps).
+  std::vector<int>& place_of = own.place_of;
+  std::vector<int>& visit = own.visit;
+  std::vector<int>& touched = own.touched;
+  std::vector<char>& marks = own.marks;
+  place_of.assign(std::size_t(rods), -1);
+  for (int i = 0; i < taking; ++i) place_of[std::size_t(part[i] - r.rod_begin)] = i;
+  marks.assign(std::size_t(taking), 0);
+  visit.clear();
+  touched.clear();
+  int at = -1;  // the place being visited
+  auto queue = [&](int i) {
+    if (i <= at || (marks[std::size_t(i)] & 1)) return;
+    marks[std::size_t(i)] |= 1;
+    visit.push_back(i);
+    std::push_heap(visit.begin(), visit.end(), std::greater<int>());
+  };
+  auto queue_with_partners = [&](int i) {
+    queue(i);
+    const RodContacts<T>& rc = rcs[std::size_t(part[i])];
+    for (const int j : rc.members) {
+      const SolveContact<T>& c = rc.contacts[std::size_t(j)];
+      if (c.kb >= 0) queue(place_of[std::size_t(c.partner - r.rod_begin)]);
+    }
+  };
+  auto touch = [&](int i) {
+    if (marks[std::size_t(i)] & 2) return;
+    marks[std::size_t(i)] |= 2;
+    touched.push_back(i);
+  };
   for (;;) {
     // a rod's contacts are visited while its contact velocities (or, for a
     // pair, its partner's) moved by more than the tolerance in this sweep
-    // or the last: converged rods cost a test, not an update. A rod whose
+    // or the last: converged rods cost nothing. A rod whose
     // largest move has not halved in kContactStallSweeps sweeps is cycling
     // (friction, as a single rod's sweeps do): its contacts and pairs stand.
     for (int i = 0; i < taking; ++i) {  // the first round every rod, then those with contacts that joined
@@ -992,14 +1038,25 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
       rc.frozen = false;
       rc.best = T(0);
       rc.best_at = -1;
+      rc.worst = T(0);
     }
     first_round = false;
+    at = -1;
+    for (const int i : visit) marks[std::size_t(i)] &= char(~1);  // (left by a round that ran out of sweeps)
+    visit.clear();
+    for (int i = 0; i < taking; ++i)
+      if (rcs[std::size_t(part[i])].open) queue_with_partners(i);
     bool done = false;
     for (int sweep = 0; sweep < kMaxContactSweeps; ++sweep, ++sweeps) {
-      for (int i = 0; i < taking; ++i) rcs[std::size_t(part[i])].worst = T(0);
-      for (int i = 0; i < taking; ++i) {
+      while (!visit.empty()) {
+        std::pop_heap(visit.begin(), visit.end(), std::greater<int>());
+        const int i = visit.back();
+        visit.pop_back();
+        marks[std::size_t(i)] &= char(~1);
+        at = i;
         RodContacts<T>& rc = rcs[std::size_t(part[i])];
         if (rc.frozen) continue;
+        touch(i);
         for (const int j : rc.members) {
           SolveContact<T>& c = rc.contacts[std::size_t(j)];
           if (c.kb < 0) {
@@ -1034,23 +1091,40 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
             const T ratio = scale > T(0) ? moved / scale : T(1);
             rc.worst = std::max(rc.worst, ratio);
             pr.worst = std::max(pr.worst, ratio);
-            pr.open = true;  // (the partner's later contacts see it in this sweep)
+            const int ip = place_of[std::size_t(c.partner - r.rod_begin)];
+            touch(ip);
+            if (!pr.open) {
+              pr.open = true;  // (the partner's later contacts see it in this sweep)
+              queue_with_partners(ip);
+            }
           }
         }
       }
+      at = -1;
+      // the rods touched in this sweep (any other has not moved and is not
+      // open): open while they moved, frozen when they stall; the open ones
+      // and their partners are visited in the next sweep
+      std::sort(touched.begin(), touched.end());
       bool any = false;
-      for (int i = 0; i < taking; ++i) {
+      for (const int i : touched) {
+        marks[std::size_t(i)] &= char(~2);
         RodContacts<T>& rc = rcs[std::size_t(part[i])];
+        const T worst = rc.worst;
+        rc.worst = T(0);
         if (rc.frozen) continue;
-        rc.open = rc.worst > T(0);
+        rc.open = worst > T(0);
         if (!rc.open) continue;
         any = true;
-        if (rc.best_at < 0 || rc.worst < T(0.5) * rc.best) {
-          rc.best = rc.worst;
+        if (rc.best_at < 0 || worst < T(0.5) * rc.best) {
+          rc.best = worst;
           rc.best_at = sweep;
         }
         if (sweep - rc.best_at >= kContactStallSweeps) rc.frozen = true;
       }
+      if (any)
+        for (const int i : touched)
+          if (!rcs[std::size_t(part[i])].frozen && rcs[std::size_t(part[i])].open) queue_with_partners(i);
+      touched.clear();
       if (!any) {
         done = true;
         for (int i = 0; i < taking; ++i) done = done && !rcs[std::size_t(part[i])].frozen;

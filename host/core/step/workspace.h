@@ -73,6 +73,12 @@ struct ContactSolveBuffer {
   std::vector<char> kind;
   std::vector<int> rods;
   std::vector<std::array<int, 3>> jobs;
+  // the sweeps over all rods' contacts (rod_contacts_in_solve): each rod's
+  // place among those taking part (−1: none), the places still to visit in
+  // this sweep (a min-heap), those whose largest move this sweep was set,
+  // and each place's marks (1: queued, 2: touched)
+  std::vector<int> place_of, visit, touched;
+  std::vector<char> marks;
   RodContacts<T>* lanes_for(int w) {
     if (int(lanes.size()) < w) lanes.resize(std::size_t(w));
     return lanes.data();
