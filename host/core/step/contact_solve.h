@@ -229,19 +229,13 @@ mat3<T> delassus_block(RodContacts<T>& rc, int i, int j) {
 // v_q += W_qj dp for every contact q in the solve. W_qj is read as W_jqᵀ,
 // which is stored as its exact transpose (group_contacts_through_factors
 // join_round: W_jj symmetrized, W_ji copied from W_ij), so the result is
-// the same to the bit; W_jq for all q is row j, contiguous (members[m] is
-// at place m), where column j is strided by the capacity.
+// the same to the bit; W_jq for all q is row j, contiguous (the members
+// in the order of their places), where column j is strided by the capacity.
 template <class T>
 void add_delassus_column(RodContacts<T>& rc, int j, vec3<T> dp) {
   if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) return;
-  const T* row = delassus_at(rc, j, rc.members.empty() ? j : rc.members[0]);
-  const std::size_t m = rc.members.size();
-  for (std::size_t q = 0; q < m; ++q, row += 9) {
-    mat3<T> w;
-    for (int e = 0; e < 9; ++e) w.m[e] = row[e];
-    SolveContact<T>& c = rc.contacts[std::size_t(rc.members[q])];
-    c.v = c.v + mul_transpose(w, dp);
-  }
+  for (const int q : rc.members)
+    rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul_transpose(delassus_block(rc, j, q), dp);
 }
 
 // One Gauss–Seidel update of rod rc's contact i (a collider or self
@@ -1103,8 +1097,8 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
       at = -1;
       // the rods touched in this sweep (any other has not moved and is not
       // open): open while they moved, frozen when they stall; the open ones
-      // and their partners are visited in the next sweep
-      std::sort(touched.begin(), touched.end());
+      // and their partners are visited in the next sweep (in any order: each
+      // rod's test is its own, and the heap orders the visits)
       bool any = false;
       for (const int i : touched) {
         marks[std::size_t(i)] &= char(~2);
