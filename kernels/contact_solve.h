@@ -99,6 +99,7 @@ struct SolveContact {
   int k = -1;                  // the element's slot (nodes k, k+1)
   T s = 0;                     // the point on it, 0 … 1
   int k2 = -1;                 // self contact: the partner element's slot (> k, same rod); −1: a collider
+  int collider = -1;           // a collider contact: the collider's index
   T t = 0;                     // self contact: the point on the partner, 0 … 1
   T a = 0;                     // kg: the contact's mass (S1); 0: both nodes held (no contact)
   T gap = 0;                   // m: the contact's gap (< 0: overlap)

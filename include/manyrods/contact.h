@@ -123,6 +123,18 @@ struct ColliderFrame {
   T origin[3] = {}, spacing = 0;
 };
 
+// One contact's impulse at the end of a step's contact solve (docs/contact.md
+// "Contact inside the implicit solve"), kept for the next step's sweeps to
+// start from where the same contact is found again (a warm start): the
+// contact by its element slot k and what it touches — a collider (its
+// index), an element k2 of the same rod (self) or an element kb of rod
+// `partner` — its unit normal and its impulse p (N·s, on the rod at k).
+template <class T>
+struct SolveImpulse {
+  int k = -1, collider = -1, k2 = -1, kb = -1, partner = -1;
+  T n[3] = {}, p[3] = {};
+};
+
 template <class T>
 struct ContactData {
   bool on = false;  // set_contact was called
@@ -161,6 +173,12 @@ struct ContactData {
   // without converging (their moves stalled)
   std::int64_t solve_sweeps = 0, solve_steps = 0, solve_stalled = 0;
   int solve_sweeps_max = 0;
+  // [rods] each rod's contacts' impulses at the end of its last contact
+  // solve (empty: none acted; kept only from one step to the next): the
+  // sweeps' first guess, not part of the answer (they converge to their
+  // tolerance from any guess), but part of the state a checkpoint keeps,
+  // so that a continued run goes on bit for bit
+  std::vector<std::vector<SolveImpulse<T>>> solve_impulses;
 };
 
 // Contacts now (recomputed from the state; for outputs, not for the step).

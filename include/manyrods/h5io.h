@@ -108,6 +108,12 @@ struct Checkpoint {
   // (ContactData::work, [1][slots] as bytes; empty: none), so that a
   // continued run's /energy/contact_work goes on bit for bit.
   std::vector<unsigned char> contact_work;
+  // With contact in the implicit solve: each rod's contacts' impulses at the
+  // end of the last step (ContactData::solve_impulses, the next step's first
+  // guess), kContactImpulseColumns values a row: rod, k, collider, k2, kb,
+  // partner, n[3], p[3] (float values exactly as doubles); empty: none.
+  static constexpr int kContactImpulseColumns = 12;
+  std::vector<double> contact_impulses;
   // A sweep's probe records up to this state (/checkpoint/probes; all
   // probes are sampled together): time [probes, samples], tip
   // [probes, samples, 3], and per probe max_strain, dissipated and the last

@@ -249,6 +249,7 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
   c.list_growths = 0;
   c.solve_sweeps = c.solve_steps = c.solve_stalled = 0;
   c.solve_sweeps_max = 0;
+  c.solve_impulses.assign(std::size_t(b.rod_count()), {});
   if (spec.rod_rod || spec.self) c.neighbours.resize(n * std::size_t(c.capacity), -1);
   c.rod_mu.assign(4 * std::size_t(b.rod_count()), T(0));
   c.rod_mu_own.assign(std::size_t(b.rod_count()), 0);

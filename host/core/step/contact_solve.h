@@ -104,6 +104,7 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
         sc.n = t.n;
         sc.axis = axis;
         sc.vp = collider_velocity(c, x0 + t.s * ed + (-r) * t.n);
+        sc.collider = i;
         pair_mu(cv.rod_mu + 4 * ri, cv.rod_mu_own[ri] != 0, c.mu, true, sc.mu);
         if (t.s < T(1)) buf.weight[std::size_t(k - first)] += T(1);
         if (t.s > T(0)) buf.weight[std::size_t(k + 1 - first)] += T(1);
@@ -207,7 +208,40 @@ bool find_solve_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, 
     if (!merged) buf.contacts[kept++] = c;
   }
   buf.contacts.resize(kept);
+  if (!any) b.contact.solve_impulses[std::size_t(ri)].clear();  // (none acts: no guess for the next step)
   return any;
+}
+
+template <class T>
+bool nonzero(vec3<T> v) {
+  return v.x != T(0) || v.y != T(0) || v.z != T(0);
+}
+
+// Rod rc's contacts' impulses at the end of its last solve, where the same
+// contact is found again (ContactData::solve_impulses: the same element and
+// what it touches, the normal within 60°, the best aligned), into
+// rc.last_p (0: none); the rod's record emptied (its finish writes this
+// step's). Both lists are in element order (find_solve_contacts, finish).
+template <class T>
+void take_last_impulses(RodBatch<T>& b, RodContacts<T>& rc) {
+  std::vector<SolveImpulse<T>>& last = b.contact.solve_impulses[std::size_t(rc.rod)];
+  rc.last_p.assign(rc.contacts.size(), vec3<T>{T(0), T(0), T(0)});
+  std::size_t from = 0;
+  for (std::size_t i = 0; i < rc.contacts.size(); ++i) {
+    const SolveContact<T>& c = rc.contacts[i];
+    while (from < last.size() && last[from].k < c.k) ++from;
+    T best = T(0.5);
+    for (std::size_t e = from; e < last.size() && last[e].k == c.k; ++e) {
+      const SolveImpulse<T>& l = last[e];
+      if (l.collider != c.collider || l.k2 != c.k2 || l.kb != c.kb || l.partner != c.partner) continue;
+      const T along = l.n[0] * c.n.x + l.n[1] * c.n.y + l.n[2] * c.n.z;
+      if (along > best) {
+        best = along;
+        rc.last_p[i] = vec3<T>{l.p[0], l.p[1], l.p[2]};
+      }
+    }
+  }
+  last.clear();
 }
 
 // W_ij of rod contacts i, j in the solve (RodContacts::delassus: the
@@ -447,8 +481,11 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
         s.node_v[d][rc.first + c] += T(x1(l, rc.start + c, d));
         s.elem_w[d][rc.first + c] += T(x1(l, rc.start + c, 3 + d));
       }
+    std::vector<SolveImpulse<T>>& last = b.contact.solve_impulses[std::size_t(rc.rod)];
+    last.clear();
     for (const SolveContact<T>& c : rc.contacts)
-      if (c.p.x != T(0) || c.p.y != T(0) || c.p.z != T(0)) {
+      if (nonzero(c.p)) {
+        last.push_back({c.k, c.collider, c.k2, c.kb, c.partner, {c.n.x, c.n.y, c.n.z}, {c.p.x, c.p.y, c.p.z}});
         cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
         store3(cv.q0, c.k, load3(cv.q0, c.k) + (T(1) - c.s) * c.p);  // (reported, as the stage's elem_p0, p1)
         store3(cv.q1, c.k, load3(cv.q1, c.k) + c.s * c.p);
@@ -458,6 +495,22 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
         }
       }
     rc.open = false;
+  };
+  // the sweeps start from the last step's impulses (a warm start) of the
+  // rod's collider and self contacts: c.v = v_free + Σ_j W_ij p_j
+  // (rod_contacts_in_solve starts the pairs, both sides at once)
+  auto start_from_last = [&]() {
+    for (int l = 0; l < Wg; ++l) {
+      RodContacts<T>& rc = *lanes[l];
+      if (rc.rod < 0) continue;
+      for (const int j : rc.members) {
+        SolveContact<T>& c = rc.contacts[std::size_t(j)];
+        const vec3<T> p = rc.last_p[std::size_t(j)];
+        if (c.kb >= 0 || !nonzero(p)) continue;
+        c.p = p;
+        add_delassus_column(rc, j, p);
+      }
+    }
   };
   if (mode == GroupMode::finish) {  // the rods' responses to their impulses, into their velocities
     for (int l = 0; l < Wg; ++l) lanes[l]->open = lanes[l]->rod >= 0 && !lanes[l]->members.empty();
@@ -487,8 +540,12 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
       // speed (a contact in range but apart adds no speed of its own)
       rc.scale = std::max(rc.scale, norm(c.v - c.vp) + cv.hardness * cv.hardness * std::max(T(0), -c.gap) / (h * b_law));
     }
+    // those that act, and those with an impulse at the last step (their
+    // first guess; rod_contacts_in_solve took them for its rods)
+    if (mode == GroupMode::solo) take_last_impulses(b, rc);
     for (int j = 0; j < nc; ++j)
-      if (acts(rc.contacts[std::size_t(j)], rc.contacts[std::size_t(j)].v)) rc.joining.push_back(j);
+      if (nonzero(rc.last_p[std::size_t(j)]) || acts(rc.contacts[std::size_t(j)], rc.contacts[std::size_t(j)].v))
+        rc.joining.push_back(j);
     rc.open = !rc.joining.empty();
     for (SolveContact<T>& c : rc.contacts) c.v_now = c.v;
   }
@@ -518,6 +575,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   if (mode == GroupMode::begin || mode == GroupMode::join) {
     while (join_round()) {
     }
+    if (mode == GroupMode::begin) start_from_last();
     for (int l = 0; l < Wg; ++l) {
       lanes[l]->joining.clear();
       lanes[l]->next = 0;
@@ -538,9 +596,10 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
   // responses; then any contact that a rod's impulses make act joins (its
   // velocity from the response) and that rod's sweeps go on; a rod with
   // none joining is done, with this response
-  for (;;) {
+  for (bool first = true;; first = false) {
     while (join_round()) {
     }
+    if (first) start_from_last();
     bool open = false;
     for (int l = 0; l < Wg; ++l) {
       RodContacts<T>& rc = *lanes[l];
@@ -951,13 +1010,14 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
                                      kf.n, gm, false);
     }
   };
-  for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::begin); });
   // each pair's two sides: where the other side is, and the contact's mass
-  // from both sides' shares (kernels/contact.h contact_compliance)
+  // from both sides' shares (kernels/contact.h contact_compliance); each
+  // rod's contacts' impulses at the last step (take_last_impulses)
   const int* part = own.rods.data();
   const int taking = int(own.rods.size());
   for_each_index(taking, parallel, ex, thread, 16, [&](int i, int) {
     RodContacts<T>& rc = rcs[std::size_t(part[i])];
+    take_last_impulses(b, rc);
     for (SolveContact<T>& c : rc.contacts) {
       if (c.kb < 0) continue;
       const std::vector<SolveContact<T>>& other = rcs[std::size_t(c.partner)].contacts;
@@ -972,6 +1032,35 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
       c.a = w > T(0) ? T(1) / w : T(0);
     }
   });
+  // a pair starts from its last impulse where both sides found it (then
+  // both join: W's blocks of both are needed), as its lower rod had it
+  for (int i = 0; i < taking; ++i) {
+    RodContacts<T>& rc = rcs[std::size_t(part[i])];
+    for (std::size_t j = 0; j < rc.contacts.size(); ++j) {
+      const SolveContact<T>& c = rc.contacts[j];
+      if (c.kb < 0 || c.partner < part[i]) continue;
+      vec3<T>& tp = rcs[std::size_t(c.partner)].last_p[std::size_t(c.twin)];
+      if (c.a > T(0) && nonzero(rc.last_p[j]) && nonzero(tp)) {
+        tp = T(-1) * rc.last_p[j];
+      } else {
+        rc.last_p[j] = tp = vec3<T>{T(0), T(0), T(0)};
+      }
+    }
+  }
+  for_each_index(jobs, parallel, ex, thread, 1, [&](int i, int t) { job(i, t, GroupMode::begin); });
+  for (int i = 0; i < taking; ++i) {
+    RodContacts<T>& rc = rcs[std::size_t(part[i])];
+    for (const int j : rc.members) {
+      SolveContact<T>& c = rc.contacts[std::size_t(j)];
+      const vec3<T> p = rc.last_p[std::size_t(j)];
+      if (c.kb < 0 || c.partner < part[i] || !nonzero(p)) continue;
+      RodContacts<T>& pr = rcs[std::size_t(c.partner)];
+      c.p = p;
+      pr.contacts[std::size_t(c.twin)].p = T(-1) * p;
+      add_delassus_column(rc, j, p);
+      add_delassus_column(pr, c.twin, T(-1) * p);
+    }
+  }
   // rounds: projected Gauss–Seidel over all the rods' contacts in the solve
   // together, rod by rod in the jobs' order (by kind, then by index), each
   // rod's in the order they joined, a pair by its lower

@@ -56,6 +56,9 @@ struct RodContacts {
   int best_at = -1;
   bool frozen = false;
   bool respond = false, joined = false;  // its impulses changed since its last response; contacts joined
+  // each contact's impulse at the rod's last solve where it was found again
+  // (0: none; ContactData::solve_impulses), the sweeps' first guess
+  std::vector<vec3<T>> last_p;
 };
 
 // One thread's buffers of the contact solve (host/core/step/contact_solve.h):

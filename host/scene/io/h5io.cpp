@@ -426,6 +426,15 @@ void Writer::write_checkpoint(const Checkpoint& c) {
   MANYRODS_STATE_FIELDS(MANYRODS_PUT)
 #undef MANYRODS_PUT
   if (!c.contact_work.empty()) put("contact_work", c.contact_work, 1);
+  if (!c.contact_impulses.empty()) {
+    constexpr hsize_t cols = Checkpoint::kContactImpulseColumns;
+    if (c.contact_impulses.size() % cols != 0) fail(w.tmp, "checkpoint: wrong size of contact_impulses");
+    const hsize_t rows = c.contact_impulses.size() / cols;
+    const Id d = create_dataset(g.get(), "contact_impulses", H5T_NATIVE_DOUBLE, {rows, cols},
+                                {std::min<hsize_t>(rows, 1 << 12), cols}, false, w.tmp);
+    check(H5Dwrite(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, c.contact_impulses.data()), w.tmp,
+          "cannot write checkpoint/contact_impulses");
+  }
   if (c.probe_count > 0) {
     const hsize_t p = hsize_t(c.probe_count), n = hsize_t(c.probe_samples);
     if (c.probe_time.size() != p * n || c.probe_tip.size() != p * n * 3 || c.probe_max_strain.size() != p ||
@@ -678,6 +687,21 @@ void read_checkpoint_state(hid_t g, const std::string& path, Checkpoint& c) {
   MANYRODS_STATE_FIELDS(MANYRODS_GET)
 #undef MANYRODS_GET
   if (H5Lexists(g, "contact_work", H5P_DEFAULT) > 0) get("contact_work", c.contact_work, 1);
+  if (H5Lexists(g, "contact_impulses", H5P_DEFAULT) > 0) {  // (files from before it: none)
+    const Id d = open_dataset(g, "contact_impulses", path);
+    const auto dims = dataset_dims(d.get());
+    constexpr hsize_t cols = Checkpoint::kContactImpulseColumns;
+    if (dims.size() != 2 || dims[1] != cols)
+      fail(path, "/checkpoint/contact_impulses has shape " + dims_str(dims) + ", expected [rows, " +
+                     std::to_string(cols) + "]");
+    const Id ft(H5Dget_type(d.get()), H5Tclose);
+    if (H5Tget_class(ft.get()) != H5T_FLOAT || H5Tget_size(ft.get()) != 8)
+      fail(path, "/checkpoint/contact_impulses is not double data");
+    plausible(path, "/checkpoint/contact_impulses", double(dims[0]) * double(cols), 8);
+    c.contact_impulses.resize(std::size_t(dims[0] * cols));
+    check(H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, c.contact_impulses.data()), path,
+          "cannot read /checkpoint/contact_impulses (truncated or damaged file?)");
+  }
 }
 
 // /checkpoint/probes (there when the run has probes): each probe's records

@@ -4,7 +4,9 @@
 // (host/scene/run/runner.cpp) and AnyBatch::save (host/scene/run/any_batch.cpp).
 #pragma once
 
+#include <cmath>
 #include <cstring>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -61,6 +63,43 @@ void save_state(const RodBatch<T>& b, h5::Checkpoint& c) {
   MANYRODS_STATE_FIELDS(MANYRODS_SAVE)
 #undef MANYRODS_SAVE
   if (b.contact.on) to_bytes(b.contact.work, c.contact_work);
+  c.contact_impulses.clear();
+  for (std::size_t r = 0; r < b.contact.solve_impulses.size(); ++r)
+    for (const SolveImpulse<T>& e : b.contact.solve_impulses[r])
+      c.contact_impulses.insert(c.contact_impulses.end(),
+                                {double(r), double(e.k), double(e.collider), double(e.k2), double(e.kb),
+                                 double(e.partner), double(e.n[0]), double(e.n[1]), double(e.n[2]), double(e.p[0]),
+                                 double(e.p[1]), double(e.p[2])});
+}
+
+// A checkpoint's contact impulses (h5::Checkpoint::contact_impulses) into
+// the batch's ContactData::solve_impulses; what is wrong with them (to
+// follow "the checkpoint's "; then nothing is changed), or "".
+template <class T>
+std::string restore_contact_impulses(RodBatch<T>& b, const std::vector<double>& rows) {
+  constexpr std::size_t cols = h5::Checkpoint::kContactImpulseColumns;
+  if (rows.empty()) return "";
+  if (!b.contact.on) return "contact_impulses belong to a scene with contact; this scene has none";
+  if (rows.size() % cols != 0) return "contact_impulses are not whole rows of " + std::to_string(cols);
+  std::vector<std::vector<SolveImpulse<T>>> out(std::size_t(b.rod_count()));
+  const int slots = b.slots(), colliders = int(b.contact.spec.colliders.size());
+  for (std::size_t i = 0; i < rows.size() / cols; ++i) {
+    const double* v = rows.data() + i * cols;
+    auto whole = [](double x, double lo, double hi) { return x == std::floor(x) && x >= lo && x < hi; };
+    const bool ok = whole(v[0], 0, b.rod_count()) && whole(v[1], 0, slots) && whole(v[2], -1, colliders) &&
+                    whole(v[3], -1, slots) && whole(v[4], -1, slots) && whole(v[5], -1, b.rod_count());
+    bool finite = true;
+    for (std::size_t j = 6; j < cols; ++j) finite = finite && std::isfinite(v[j]);
+    if (!ok || !finite)
+      return "contact_impulses row " + std::to_string(i) + " is not a contact of this batch (rod " +
+             std::to_string(v[0]) + ", slot " + std::to_string(v[1]) + ") or not finite";
+    SolveImpulse<T> e;
+    e.k = int(v[1]), e.collider = int(v[2]), e.k2 = int(v[3]), e.kb = int(v[4]), e.partner = int(v[5]);
+    for (int d = 0; d < 3; ++d) e.n[d] = T(v[6 + d]), e.p[d] = T(v[9 + d]);
+    out[std::size_t(v[0])].push_back(e);
+  }
+  b.contact.solve_impulses = std::move(out);
+  return "";
 }
 
 // The frame layout of an output file of this batch: rod r in group

@@ -27,6 +27,7 @@ namespace {
 
 using detail::field_size;
 using detail::from_bytes;
+using detail::restore_contact_impulses;
 using detail::to_bytes;
 
 std::int64_t round_up(std::int64_t s, std::int64_t m) { return (s / m + 1) * m; }
@@ -170,6 +171,9 @@ class SceneRun {
                          " bytes, the batch needs " + std::to_string(b_.contact.work.size() * sizeof(T)));
       from_bytes(b_.contact.work, c.contact_work);
     }
+    // the contact solve's impulses at the checkpoint's step, its next first guess
+    if (const std::string bad = restore_contact_impulses(b_, c.contact_impulses); !bad.empty())
+      throw SceneError(s_.source + ": the checkpoint's " + bad);
     b_.state.time = c.time;
     b_.state.steps = c.steps;
     dissipated_ = c.dissipated;
