@@ -1139,3 +1139,89 @@ TEST(Contact, RodsMeetingInTheirSolveKeepTheirMomentum) {
   }
   }
 }
+
+// ---- Sweeps that start from the last step's impulses ----------------------------------
+// A damped cable (τ = 0.05 s) lying across another, clamped at both ends,
+// and a third lying on a floor, with friction: at rest their contacts'
+// impulses carry the weight and do not change from one step to the next,
+// so sweeps started from the last step's impulses (ContactData::
+// solve_impulses) find them solved: the first sweep moves no contact
+// velocity by more than the tolerance (the counter counts the sweeps after
+// the first: 0). From zero the same steps take ~20 sweeps (the floor
+// cable's 26 contacts converge by ~0.5 a sweep to the tolerance 1e-6).
+// From the same state a step with them and a step without solve the same
+// problem: both stop where no update moves a contact velocity by more than
+// tol·scale (scale ≈ g h at rest, the free solve's approach speed), each
+// within tol·scale·ρ/(1−ρ) ≤ tol·scale of the solution per contact at ρ ≤
+// 0.5, so the nodes' velocities differ by at most the 28 contacts' sum of
+// it twice, < 100 tol·g h (independent of the guess: a self-consistency).
+TEST(Contact, SweepsStartFromTheLastStepsImpulses) {
+  const double r = 5e-3, tau = 0.05;
+  auto cable = [&](const Vec3& start, const Vec3& dir) {
+    RodSpec s = lying_rod(start, dir, 25, 0.5);
+    s.section = Section::circle(r);
+    s.material = {1400, 5e7, 0.45};
+    s.damping = Damping::shear_extension(tau, tau);
+    return s;
+  };
+  RodSpec bottom = cable({-0.25, 0, 0.1}, {1, 0, 0});
+  bottom.clamped_root = bottom.clamped_tip = true;
+  RodBatch<double> b =
+      build_batch<double>({bottom, cable({0, -0.25, 0.1 + 2 * r}, {0, 1, 0}), cable({-0.25, 0.3, r}, {1, 0, 0})},
+                          {0, 0, -kG});
+  ContactSpec spec;
+  spec.rod_rod = true;
+  spec.colliders = {floor_plane()};
+  spec.friction = {0.4, 0.3};
+  set_contact(b, spec);
+  const double h = 0.9 * stable_dt<kAllContact>(b).elastic;
+  for (int i = 0; i < int(0.5 / h); ++i) step<kAllContact>(b, h);
+  auto sweeps_over = [&](RodBatch<double>& c, int n, bool cold) {
+    const std::int64_t s0 = contact_stats(c).solve_sweeps, t0 = contact_stats(c).solve_steps;
+    for (int i = 0; i < n; ++i) {
+      if (cold)
+        for (auto& l : c.contact.solve_impulses) l.clear();
+      step<kAllContact>(c, h);
+    }
+    return double(contact_stats(c).solve_sweeps - s0) / double(contact_stats(c).solve_steps - t0);
+  };
+  RodBatch<double> warm = b, cold = b;
+  const double sw = sweeps_over(warm, 100, false), sc = sweeps_over(cold, 100, true);
+  RodBatch<double> one_warm = b, one_cold = b;
+  for (auto& l : one_cold.contact.solve_impulses) l.clear();
+  step<kAllContact>(one_warm, h);
+  step<kAllContact>(one_cold, h);
+  double dv = 0;
+  for (int k = 0; k < b.slots(); ++k)
+    for (int d = 0; d < 3; ++d)
+      dv = std::max(dv, std::abs(one_warm.state.node_v[d][k] - one_cold.state.node_v[d][k]));
+  std::size_t kept = 0;
+  for (const auto& l : b.contact.solve_impulses) kept += l.size();
+  std::printf("cables at rest: %zu contact impulses kept; sweeps a step after the first: %.3g from them, %.3g "
+              "from zero; one step from both: velocities %.3g m/s apart (g h = %.3g m/s)\n",
+              kept, sw, sc, dv, kG * h);
+  EXPECT_EQ(kept, 28u);  // the crossing (one on each side) and the floor cable's 26 nodes
+  EXPECT_LT(sw, 0.1);
+  EXPECT_GT(sc, 10.0);
+  EXPECT_LT(dv, 100 * kContactSweepTolerance<double> * kG * h);
+}
+
+// A batch with colliders stepped with Terms that have rod–rod contact but
+// no colliders meets no collider (the Terms choose the physics): a rod over
+// a floor falls through it, and with the colliders' Terms it stays above.
+TEST(Contact, TermsWithoutCollidersMeetNoCollider) {
+  for (const bool colliders : {false, true}) {
+    std::vector<RodSpec> rods = {lying_rod({-0.05, 0, 0.01}, {1, 0, 0}), lying_rod({-0.05, 0.05, 0.01}, {1, 0, 0})};
+    for (RodSpec& r : rods) r.damping = Damping::shear_extension(0.01, 0.01);
+    RodBatch<double> b = build_batch<double>(rods, {0, 0, -kG});
+    ContactSpec spec;
+    spec.rod_rod = true;
+    spec.colliders = {floor_plane()};
+    set_contact(b, spec);
+    for (int i = 0; i < 1000; ++i) colliders ? step<kAllContact>(b, 1e-4) : step<kRodContact>(b, 1e-4);
+    // 0.1 s of free fall from 1 cm: 4.9 cm down without the floor
+    if (colliders) EXPECT_GT(b.position(0, 5)[2], 0.0);
+    else EXPECT_LT(b.position(0, 5)[2], -0.03);
+  }
+}
+

@@ -128,11 +128,12 @@ struct ColliderFrame {
 // start from where the same contact is found again (a warm start): the
 // contact by its element slot k and what it touches — a collider (its
 // index), an element k2 of the same rod (self) or an element kb of rod
-// `partner` — its unit normal and its impulse p (N·s, on the rod at k).
+// `partner` — its point s on the element (0 … 1), its unit normal and its
+// impulse p (N·s, on the rod at k).
 template <class T>
 struct SolveImpulse {
   int k = -1, collider = -1, k2 = -1, kb = -1, partner = -1;
-  T n[3] = {}, p[3] = {};
+  T s = 0, n[3] = {}, p[3] = {};
 };
 
 template <class T>

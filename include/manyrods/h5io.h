@@ -111,8 +111,8 @@ struct Checkpoint {
   // With contact in the implicit solve: each rod's contacts' impulses at the
   // end of the last step (ContactData::solve_impulses, the next step's first
   // guess), kContactImpulseColumns values a row: rod, k, collider, k2, kb,
-  // partner, n[3], p[3] (float values exactly as doubles); empty: none.
-  static constexpr int kContactImpulseColumns = 12;
+  // partner, s, n[3], p[3] (float values exactly as doubles); empty: none.
+  static constexpr int kContactImpulseColumns = 13;
   std::vector<double> contact_impulses;
   // A sweep's probe records up to this state (/checkpoint/probes; all
   // probes are sampled together): time [probes, samples], tip

@@ -39,6 +39,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <functional>
 #include <stdexcept>
@@ -219,7 +220,8 @@ bool nonzero(vec3<T> v) {
 
 // Rod rc's contacts' impulses at the end of its last solve, where the same
 // contact is found again (ContactData::solve_impulses: the same element and
-// what it touches, the normal within 60°, the best aligned), into
+// what it touches, the normal within 60°, the point on the element the
+// nearest: a rod lying on a plane touches it at both ends of an element), into
 // rc.last_p (0: none); the rod's record emptied (its finish writes this
 // step's). Both lists are in element order (find_solve_contacts, finish).
 template <class T>
@@ -230,13 +232,14 @@ void take_last_impulses(RodBatch<T>& b, RodContacts<T>& rc) {
   for (std::size_t i = 0; i < rc.contacts.size(); ++i) {
     const SolveContact<T>& c = rc.contacts[i];
     while (from < last.size() && last[from].k < c.k) ++from;
-    T best = T(0.5);
+    T nearest = T(2);
     for (std::size_t e = from; e < last.size() && last[e].k == c.k; ++e) {
       const SolveImpulse<T>& l = last[e];
       if (l.collider != c.collider || l.k2 != c.k2 || l.kb != c.kb || l.partner != c.partner) continue;
-      const T along = l.n[0] * c.n.x + l.n[1] * c.n.y + l.n[2] * c.n.z;
-      if (along > best) {
-        best = along;
+      if (!(l.n[0] * c.n.x + l.n[1] * c.n.y + l.n[2] * c.n.z > T(0.5))) continue;
+      const T apart = std::abs(l.s - c.s);
+      if (apart < nearest) {
+        nearest = apart;
         rc.last_p[i] = vec3<T>{l.p[0], l.p[1], l.p[2]};
       }
     }
@@ -485,7 +488,7 @@ void group_contacts_through_factors(RodBatch<T>& b, T h, const ContactView<T>& c
     last.clear();
     for (const SolveContact<T>& c : rc.contacts)
       if (nonzero(c.p)) {
-        last.push_back({c.k, c.collider, c.k2, c.kb, c.partner, {c.n.x, c.n.y, c.n.z}, {c.p.x, c.p.y, c.p.z}});
+        last.push_back({c.k, c.collider, c.k2, c.kb, c.partner, c.s, {c.n.x, c.n.y, c.n.z}, {c.p.x, c.p.y, c.p.z}});
         cv.work[c.k] += T(0.5) * dot(c.p, point_velocity(c, cv.v_start) + point_velocity(c, s.node_v));
         store3(cv.q0, c.k, load3(cv.q0, c.k) + (T(1) - c.s) * c.p);  // (reported, as the stage's elem_p0, p1)
         store3(cv.q1, c.k, load3(cv.q1, c.k) + c.s * c.p);

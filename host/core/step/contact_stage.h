@@ -44,8 +44,8 @@ ContactView<T> contact_view(RodBatch<T>& b, const ColliderFrame<T>* frames, bool
                             bool self_terms = false) {
   ContactData<T>& c = b.contact;
   ContactView<T> v;
-  v.colliders = frames;
-  v.collider_count = int(c.spec.colliders.size());
+  v.colliders = frames;  // (nullptr: the step's Terms have no colliders, and it meets none)
+  v.collider_count = frames ? int(c.spec.colliders.size()) : 0;
 #define MANYRODS_CONTACT_VIEW_OF(type, name, view, n, fill, doc) view_of(v.view, c.name);
   MANYRODS_CONTACT_VIEW_FIELDS(MANYRODS_CONTACT_VIEW_OF)
 #undef MANYRODS_CONTACT_VIEW_OF

@@ -68,7 +68,7 @@ void save_state(const RodBatch<T>& b, h5::Checkpoint& c) {
     for (const SolveImpulse<T>& e : b.contact.solve_impulses[r])
       c.contact_impulses.insert(c.contact_impulses.end(),
                                 {double(r), double(e.k), double(e.collider), double(e.k2), double(e.kb),
-                                 double(e.partner), double(e.n[0]), double(e.n[1]), double(e.n[2]), double(e.p[0]),
+                                 double(e.partner), double(e.s), double(e.n[0]), double(e.n[1]), double(e.n[2]), double(e.p[0]),
                                  double(e.p[1]), double(e.p[2])});
 }
 
@@ -90,12 +90,14 @@ std::string restore_contact_impulses(RodBatch<T>& b, const std::vector<double>& 
                     whole(v[3], -1, slots) && whole(v[4], -1, slots) && whole(v[5], -1, b.rod_count());
     bool finite = true;
     for (std::size_t j = 6; j < cols; ++j) finite = finite && std::isfinite(v[j]);
+    finite = finite && v[6] >= 0 && v[6] <= 1;
     if (!ok || !finite)
       return "contact_impulses row " + std::to_string(i) + " is not a contact of this batch (rod " +
-             std::to_string(v[0]) + ", slot " + std::to_string(v[1]) + ") or not finite";
+             std::to_string(v[0]) + ", slot " + std::to_string(v[1]) + ") or not finite, or its point is not on the element";
     SolveImpulse<T> e;
     e.k = int(v[1]), e.collider = int(v[2]), e.k2 = int(v[3]), e.kb = int(v[4]), e.partner = int(v[5]);
-    for (int d = 0; d < 3; ++d) e.n[d] = T(v[6 + d]), e.p[d] = T(v[9 + d]);
+    e.s = T(v[6]);
+    for (int d = 0; d < 3; ++d) e.n[d] = T(v[7 + d]), e.p[d] = T(v[10 + d]);
     out[std::size_t(v[0])].push_back(e);
   }
   b.contact.solve_impulses = std::move(out);
