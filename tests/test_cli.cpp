@@ -268,6 +268,25 @@ TEST(Cli, RestartIsBitIdenticalToAnUninterruptedRun) {
   const Result pr = cli("run --restart " + ppart + " -o " + prest);
   ASSERT_EQ(pr.status, 0) << pr.err;
   expect_same_run(pfull, prest);
+  // a checkpoint whose impulses name a rod the scene does not have: a clear
+  // error naming the row, and no output written
+  {
+    const hid_t f = H5Fopen(ppart.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    const hid_t d = H5Dopen2(f, "checkpoint/contact_impulses", H5P_DEFAULT);
+    ASSERT_GE(d, 0);
+    std::vector<double> rows(std::size_t(H5Sget_simple_extent_npoints(H5Dget_space(d))));
+    ASSERT_GE(H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, rows.data()), 0);
+    rows[0] = 7;  // (the scene has 3 rods)
+    ASSERT_GE(H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, rows.data()), 0);
+    H5Dclose(d);
+    H5Fclose(f);
+  }
+  fs::remove(path("pile_bad.h5"));
+  const Result bad = cli("run --restart " + ppart + " -o " + path("pile_bad.h5"));
+  EXPECT_EQ(bad.status, 2) << bad.err;
+  expect_contains(bad.err, "contact_impulses row 0 is not a contact of this batch (rod 7");
+  EXPECT_FALSE(fs::exists(path("pile_bad.h5")));
 }
 
 TEST(Cli, ThreadCountDoesNotChangeTheResult) {

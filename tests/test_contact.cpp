@@ -978,6 +978,18 @@ TEST(Contact, NeighbourListsGrowToTheSameStepAndStopAtTheirLimitWithAnError) {
 // 0.05 r at 5 m/s, τ = 0.05 s; 0.21 mm undamped: the cable's momentum
 // reaches the contact through its elastic forces over several steps, beyond
 // the single contact's v h/17) and bounded by r/4, as the plectoneme's.
+// A damped cable (a soft polymer jacket: radius r, 0.5 m in 25 elements,
+// E = 50 MPa, τ for shear and extension) lying from `start` along `dir`.
+namespace {
+RodSpec damped_cable(const Vec3& start, const Vec3& dir, double r, double tau) {
+  RodSpec s = lying_rod(start, dir, 25, 0.5);
+  s.section = Section::circle(r);
+  s.material = {1400, 5e7, 0.45};
+  s.damping = Damping::shear_extension(tau, tau);
+  return s;
+}
+}  // namespace
+
 TEST(Contact, ADampedCableDroppedOnAnotherNeverGainsEnergyNorPassesThrough) {
   for (double v : {1.0, 5.0})
     for (double tau : {0.005, 0.05, -0.05}) {
@@ -987,13 +999,7 @@ TEST(Contact, ADampedCableDroppedOnAnotherNeverGainsEnergyNorPassesThrough) {
       const bool driven = tau < 0;
       tau = std::abs(tau);
       const double r = 5e-3;
-      auto cable = [&](const Vec3& start, const Vec3& dir) {
-        RodSpec s = lying_rod(start, dir, 25, 0.5);
-        s.section = Section::circle(r);
-        s.material = {1400, 5e7, 0.45};
-        s.damping = Damping::shear_extension(tau, tau);
-        return s;
-      };
+      auto cable = [&](const Vec3& start, const Vec3& dir) { return damped_cable(start, dir, r, tau); };
       RodSpec bottom = cable({-0.25, 0, 0}, {1, 0, 0});
       bottom.clamped_root = bottom.clamped_tip = true;
       if (driven) {
@@ -1157,13 +1163,7 @@ TEST(Contact, RodsMeetingInTheirSolveKeepTheirMomentum) {
 // it twice, < 100 tol·g h (independent of the guess: a self-consistency).
 TEST(Contact, SweepsStartFromTheLastStepsImpulses) {
   const double r = 5e-3, tau = 0.05;
-  auto cable = [&](const Vec3& start, const Vec3& dir) {
-    RodSpec s = lying_rod(start, dir, 25, 0.5);
-    s.section = Section::circle(r);
-    s.material = {1400, 5e7, 0.45};
-    s.damping = Damping::shear_extension(tau, tau);
-    return s;
-  };
+  auto cable = [&](const Vec3& start, const Vec3& dir) { return damped_cable(start, dir, r, tau); };
   RodSpec bottom = cable({-0.25, 0, 0.1}, {1, 0, 0});
   bottom.clamped_root = bottom.clamped_tip = true;
   RodBatch<double> b =

@@ -18,7 +18,10 @@
 //                         elem_w [3, slots], node_xc [3, slots] (float) in the run's
 //                         precision, raw slot arrays (ghosts included), and
 //                         attributes time, steps, dt, dissipated, ...;
-//                         with contact contact_work [1, slots] (per slot);
+//                         with contact contact_work [1, slots] (per slot)
+//                         and, where contacts acted in the implicit solve,
+//                         contact_impulses [rows, 13] (double: rod, k,
+//                         collider, k2, kb, partner, s, n[3], p[3]);
 //                         and, for a sweep, probes/{time, tip, max_strain,
 //                         dissipated, dissipation_rate, observed,
 //                         observed_last} (its records so far)
