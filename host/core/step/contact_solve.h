@@ -270,7 +270,7 @@ mat3<T> delassus_block(RodContacts<T>& rc, int i, int j) {
 // in the order of their places), where column j is strided by the capacity.
 template <class T>
 void add_delassus_column(RodContacts<T>& rc, int j, vec3<T> dp) {
-  if (dp.x == T(0) && dp.y == T(0) && dp.z == T(0)) return;
+  if (!nonzero(dp)) return;
   for (const int q : rc.members)
     rc.contacts[std::size_t(q)].v = rc.contacts[std::size_t(q)].v + mul_transpose(delassus_block(rc, j, q), dp);
 }
@@ -1167,7 +1167,7 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
             p = contact_local_impulse(c, we, c.v - mul(wa, c.p), h, cv.hardness, cv.damping_ratio);
           }
           const vec3<T> dp = p - c.p;
-          if (dp.x != T(0) || dp.y != T(0) || dp.z != T(0)) rc.respond = pr.respond = true;
+          if (nonzero(dp)) rc.respond = pr.respond = true;
           add_delassus_column(rc, j, dp);
           add_delassus_column(pr, c.twin, T(-1) * dp);
           c.p = p;

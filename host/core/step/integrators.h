@@ -199,6 +199,7 @@ void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, cons
                                       part);
     });
     if constexpr (kCoupled) {
+      const ColliderFrame<T>* step_frame = step_frames(frames, nc, 0);  // (block = 1; nullptr: no colliders)
       // the lists the contact solve reads (self contact), at its positions
       // (the contact stage checks them again at its velocities), then it
       if (detail::contact_solve_reads_lists<kT>(b)) {
@@ -207,16 +208,16 @@ void step_n(RodBatch<T>& b, std::type_identity_t<T> dt, std::int64_t count, cons
           // rods meeting each other: the contact solve on the whole batch
           if (detail::rods_meet_in_solve<kT>(b))
             timed(ex, 0, Stage::contact_solve, [&] {
-              contact_solve_stage<detail::solve_terms<kT, kV>()>(b, dt, step_frames(frames, nc, 0), ex, whole(b), 0);
+              contact_solve_stage<detail::solve_terms<kT, kV>()>(b, dt, step_frame, ex, whole(b), 0);
             });
         }
         for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
-          detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, step_frames(frames, nc, 0), e, r, thread, Part::contact_solve);
+          detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, step_frame, e, r, thread, Part::contact_solve);
         });
       }
-      detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, step_frames(frames, nc, 0), ex, whole(b), 0, Part::contact);
+      detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, step_frame, ex, whole(b), 0, Part::contact);
       for_each_segment(b, ex, [&](const Segment& r, const Exec& e, int thread) {
-        detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, step_frames(frames, nc, 0), e, r, thread, Part::after_contact);
+        detail::verlet_stages<kT, kV>(b, dt, t0, steps0 + 1, solve, step_frame, e, r, thread, Part::after_contact);
       });
     }
     for (std::int64_t i = 0; i < block; ++i) b.state.time += double(dt);  // as `block` step() calls
