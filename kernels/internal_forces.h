@@ -26,6 +26,12 @@
 // nothing; a clamped root is a Voronoi point of length l̂_0/2 joining element 0
 // to the clamp frame held in the ghost element before it.
 //
+// Stiff rods (kBendRate, kernels/viscous_implicit.h "Stiff rods"): their
+// bending moment also carries bend_tau · C_M U̇ on components 1–2, with
+// bend_tau = −c h and U̇ the rate at the start-of-step velocities, so that
+// with the implicit solve's +c h the bending force is evaluated at
+// x_{n+½} + c h (u⁺ − u_n).
+//
 // Stages: element_stage and voronoi_stage (strains → resultants → scratch),
 // then node_force and element_couple gather from scratch (no scatter).
 //
@@ -51,13 +57,18 @@ MANYRODS_HD inline void element_stage(int k, const ModelView<T>& m, const ConstS
   store3(out.elem_couple, k, cross(es.Qe, n));
 }
 
-template <Terms kT, bool kSmall = false, class T>
+template <Terms kT, bool kSmall = false, bool kBendRate = false, class T>
 MANYRODS_HD inline void voronoi_stage(int k, const ModelView<T>& m, const ConstStateView<T>& s,
-                                      const ScratchView<T>& out) {
+                                      const ScratchView<T>& out, T bend_tau = T(0)) {
   const VoronoiStrain<T> vs = voronoi_strain<kSmall>(k, m, s);
   vec3<T> rate = {T(0), T(0), T(0)};
-  if constexpr (kT.kelvin_voigt) rate = voronoi_strain_rate(k, m, s, vs);
-  const vec3<T> mo = voronoi_resultant<kT>(k, m, vs.kappa, rate);
+  if constexpr (kT.kelvin_voigt || kBendRate) rate = voronoi_strain_rate(k, m, s, vs);
+  vec3<T> mo = voronoi_resultant<kT>(k, m, vs.kappa, rate);
+  if constexpr (kBendRate && kT.bend) {  // a stiff rod's bending correction (above)
+    const vec3<T> c = load3(m.vor_stiffness, k);
+    mo.x += c.x * bend_tau * rate.x;
+    mo.y += c.y * bend_tau * rate.y;
+  }
   store3(out.vor_moment, k, mo + vs.gamma * cross(vs.psi, cross(vs.psi, mo)));
   store3(out.vor_kxm, k, m.vor_rest_length[k] * cross(vs.kappa, mo));
 }
@@ -65,10 +76,10 @@ MANYRODS_HD inline void voronoi_stage(int k, const ModelView<T>& m, const ConstS
 // The branch-free Voronoi stage; returns true when joint k turns by more
 // than ½ rad, where its result is not valid and the launcher redoes it with
 // voronoi_stage<kT, false>.
-template <Terms kT, class T>
+template <Terms kT, bool kBendRate = false, class T>
 MANYRODS_HD inline bool voronoi_stage_small(int k, const ModelView<T>& m, const ConstStateView<T>& s,
-                                            const ScratchView<T>& out) {
-  voronoi_stage<kT, true>(k, m, s, out);
+                                            const ScratchView<T>& out, T bend_tau = T(0)) {
+  voronoi_stage<kT, true, kBendRate>(k, m, s, out, bend_tau);
   T tr = T(0);
   MANYRODS_UNROLL
   for (int i = 0; i < 9; ++i) tr += s.elem_Q[i][k] * s.elem_Q[i][k - 1];

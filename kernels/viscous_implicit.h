@@ -31,20 +31,42 @@
 // prescribed velocities enter through rigid_shift (below).
 //
 // Stiff rods (RodSpec::stiff_implicit, "frame-rate hair"): the same solve
-// also integrates the shear, stretch and twist STIFFNESS linearly implicitly.
-// For a stiffness K_s = Σ l̂ B_kᵀ C_s B_k, backward Euler on the elastic force
-// at the end of the kick, F_s(x + h u⁺) ≈ F_s(x) − h K_s u⁺, adds exactly the
-// viscous form above with τ replaced by β h, β = 1 (`stiff_h` = h). For one
-// mode of frequency ω (Position Verlet drift–kick–drift with the force
-// explicit and −β h² ω² u⁺ implicit) the step's spectral radius stays ≤ 1 for
-// every hω when β ≥ ½, and tends to 0 as hω → ∞ for β = 1: the unresolved
-// shear/stretch/twist oscillations are annihilated and those strains follow
-// their quasi-static values (the inextensible, unshearable limit as h ω → ∞),
-// while bending, whose rates hardly strain shear or stretch, stays explicit
-// and second order. The stable step is then the bending one (stable_dt with
-// StableDtOptions::stiff_implicit). The added damping acts on the stiff
-// strain RATES only: a slowly varying stretch or shear (rate σ̇ ≪ σ/h) is
-// disturbed by O(h σ̇), i.e. first order in h.
+// also integrates the elastic STIFFNESS linearly implicitly, so that no
+// elastic mode limits the step.
+//  - Shear, stretch and twist (the stiff components): for a stiffness
+//    K_s = Σ l̂ B_kᵀ C_s B_k, backward Euler on the elastic force at the end
+//    of the kick, F_s(x + h u⁺) ≈ F_s(x) − h K_s u⁺, adds exactly the
+//    viscous form above with τ replaced by β h, β = 1 (`stiff_h` = h). For
+//    one mode of frequency ω (Position Verlet drift–kick–drift with the
+//    force explicit and −β h² ω² u⁺ implicit) the spectral radius tends to 0
+//    as hω → ∞ for β = 1: the unresolved shear/stretch/twist oscillations are
+//    annihilated and those strains follow their quasi-static values (the
+//    inextensible, unshearable limit). The added damping acts on the stiff
+//    strain RATES only: a slowly varying stretch or shear (rate σ̇ ≪ σ/h) is
+//    disturbed by O(h σ̇), first order in h but small.
+//  - Bending, the motion that matters, must not be damped at first order
+//    (backward Euler on bending takes 2·10⁻² L off a swinging hair even at
+//    h = 10⁻⁴ s, bench/RESULTS.md). The bending force is evaluated instead
+//    at x_{n+½} + c h (u⁺ − u_n), linearized:
+//      F_b(x_{n+½}) − c h K_b (u⁺ − u_n),
+//    i.e. c h added to the joints' bending τ here and −c h K_b u_n in the
+//    kick (kernels/internal_forces.h: the bending moment carries
+//    −c h C_M U̇ at the start-of-step rates, at the same half-step geometry,
+//    so that both parts use one K_b). Since u⁺ − u_n = O(h) the correction
+//    is O(h³) per step: the scheme stays second order. For one mode
+//    (a = hω, scaled x): the step matrix has determinant exactly 1 and trace
+//    2 − a²/(1 + c a²), so it is stable for every hω once c ≥ ¼, undamped
+//    (c = ¼ evaluates the force at (x_n + x_{n+1})/2, the implicit midpoint
+//    rule), and an unresolved mode (a → ∞) turns by arccos(1 − 1/(2c)) per
+//    step, π for c = ¼. c = kStiffBendingC = 0.3 (131.8°): at c = ¼ an
+//    undamped hair released horizontal goes unstable at 1/240 s (its
+//    whipping tip turns by radians per step; the period-2 ringing of the
+//    unresolved modes feeds the nonlinear coupling), at 0.3 it stays
+//    bounded at every step measured, for 1.15× the error of c = ¼ on the
+//    damped hair (bench/RESULTS.md "Stiff rods: bending in the solve").
+//  The stable step of a stiff rod is then set by its explicit parts only
+//  (none for a rod alone); its step is an accuracy choice (stable_dt's
+//  `accuracy`).
 //
 // reads: model, state geometry and velocities  writes: node_v, elem_w of the
 // rod, and the elimination scratch G (36 per cell) and g (6 per cell), indexed
@@ -58,6 +80,11 @@
 #include "kernels/strains.h"
 
 namespace manyrods {
+
+// Stiff rods' bending (see the file comment): the solve adds c·h to the
+// joints' bending retardation times and the kick's bending moment carries
+// −c·h times the start-of-step bending rate, c = kStiffBendingC.
+inline constexpr double kStiffBendingC = 0.3;
 
 namespace viscous_detail {
 
@@ -120,12 +147,14 @@ MANYRODS_HD inline void cholesky6_solve(const Block6<T>& l, T* x) {
 }
 
 // The retardation times in the solve: τ if the Kelvin–Voigt term is solved
-// here (kT.kelvin_voigt), plus `stiff_h` for the stiff components: shear and
-// stretch of an element, twist (not bending) of a joint.
+// here (kT.kelvin_voigt), plus, for a stiff rod (stiff_h = h), h on the
+// stiff components (shear and stretch of an element, twist of a joint) and
+// c·h on a joint's bending (kStiffBendingC).
 template <Terms kT, class T>
 MANYRODS_HD inline vec3<T> solve_tau(const T* const tau[3], int k, T stiff_h, bool joint) {
   const vec3<T> t = kT.kelvin_voigt ? load3(tau, k) : vec3<T>{T(0), T(0), T(0)};
-  return {joint ? t.x : t.x + stiff_h, joint ? t.y : t.y + stiff_h, t.z + stiff_h};
+  const T bend_h = joint ? T(kStiffBendingC) * stiff_h : stiff_h;
+  return {t.x + bend_h, t.y + bend_h, t.z + stiff_h};
 }
 
 // Element k's viscous weight W = l̂ V_F and maps (b1, b2, b3) scaled by l̂.
@@ -151,7 +180,6 @@ MANYRODS_HD inline void voronoi_maps(int k, T stiff_h, const ModelView<T>& m, co
                                      vec3<T>& w, mat3<T>& c1, mat3<T>& c2) {
   const VoronoiStrain<T> vs = voronoi_strain(k, m, s);
   const T d = m.vor_rest_length[k], id = T(1) / d;
-  // bending stays explicit: only twist (z) gets stiff_h
   const vec3<T> c = load3(m.vor_stiffness, k), tau = solve_tau<kT>(m.vor_tau, k, stiff_h, true);
   w = {kT.bend ? d * c.x * tau.x : T(0), kT.bend ? d * c.y * tau.y : T(0),
        kT.twist ? d * c.z * tau.z : T(0)};

@@ -183,13 +183,14 @@ MANYRODS_HD inline bool joint_log(const mat3<T>& R, vec3<T>& psi, T& gamma) {
   }
 }
 
-// The joint's weights v̂ = h C_M τ / D̂ (τ as solve_tau: stiff_h on twist).
+// The joint's weights v̂ = h C_M τ / D̂ (τ as solve_tau: c·stiff_h on
+// bending, stiff_h on twist).
 template <Terms kT, class T>
 MANYRODS_HD inline void joint_weights(T h, T stiff_h, T d, vec3<T> cm, vec3<T> tau_kv, T v[3]) {
-  const T hd = h / d;
+  const T hd = h / d, bend_h = T(kStiffBendingC) * stiff_h;
   const vec3<T> t = kT.kelvin_voigt ? tau_kv : vec3<T>{T(0), T(0), T(0)};
-  v[0] = kT.bend ? hd * cm.x * t.x : T(0);
-  v[1] = kT.bend ? hd * cm.y * t.y : T(0);
+  v[0] = kT.bend ? hd * cm.x * (t.x + bend_h) : T(0);
+  v[1] = kT.bend ? hd * cm.y * (t.y + bend_h) : T(0);
   v[2] = kT.twist ? hd * cm.z * (t.z + stiff_h) : T(0);
 }
 

@@ -198,8 +198,10 @@ void step_matches_scalar(RodBatch<T>& lanes, T dt, int threads, Checker& ck_u, C
   RodBatch<T> scalar = lanes;
   step_n<kAllTerms>(lanes, dt, 1, ex);
   drift(scalar, T(0.5) * dt, ex);
-  compute_resultants<kExplicit>(scalar, ex);
-  for (const Segment& sg : scalar.segments) segment_kick<kExplicit>(scalar, dt, ex, sg);  // as step_n
+  for (const Segment& sg : scalar.segments) {  // as step_n (stiff segments: the bending correction)
+    compute_resultants<kExplicit>(scalar, ex, sg, T(-kStiffBendingC) * dt);
+    segment_kick<kExplicit>(scalar, dt, ex, sg);
+  }
   const RodBatch<T> before = scalar;  // u⁻ at the frozen geometry
   viscous_update<kAllTerms, 1>(scalar, dt, ex);
   drift(scalar, T(0.5) * dt, ex);

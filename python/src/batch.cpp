@@ -218,7 +218,7 @@ void bind_batch_layout(nb::class_<PyBatch>& c) {
       .def_prop_ro("time", [](const PyBatch& p) { return p.b.time(); }, "simulated time, s")
       .def_prop_ro("steps", [](const PyBatch& p) { return p.b.steps(); })
       .def_prop_ro("dt", [](const PyBatch& p) { return p.b.scene_dt(); },
-                   "the scene's step (its dt or \"auto\"); rods built in code: 0.9 × stable_dt()['elastic']")
+                   "the scene's step (its dt or \"auto\"); rods built in code: 0.9 × min(stable_dt()['elastic'], stable_dt()['accuracy'])")
       .def("elements", [](const PyBatch& p, int rod) { return p.b.elements(rod); }, "rod"_a)
       .def(
           "node_range",
@@ -320,9 +320,11 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
             d["elastic"] = s.elastic;
             d["explicit_viscous"] = s.explicit_viscous;
             d["omega_max"] = s.omega_max;
+            d["accuracy"] = s.accuracy;
             return d;
           },
-          "The largest stable step (s) of what the batch integrates explicitly")
+          "The largest stable step (s) of what the batch integrates explicitly ('elastic'; inf: none, e.g. only "
+          "stiff rods) and the stiff rods' accuracy step ('accuracy', the one dt = \"auto\" takes for them)")
       .def(
           "solve_static",
           [](PyBatch& p, int load_steps, double tolerance) {

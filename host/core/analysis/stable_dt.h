@@ -15,18 +15,15 @@
 // h ≲ 2/(τ ω_max²) (docs/model.md "Time stepping"), reported separately; the implicit
 // treatment has no τ limit.
 //
-// Stiff rods (RodSpec::stiff_implicit) integrate shear, stretch and twist
-// implicitly; what stays explicit is bending on the motion those stiff terms
-// allow, i.e. the flexural waves of the inextensible, unshearable rod (the
-// rotation of an element follows its centerline: a rotary oscillation
-// against bending alone would shear the element, which the implicit solve
-// forbids). Its stiffness in the node displacements: the joint curvature
-// κ_j = (t_{j+1} − t_j)/D̂_j with the unit tangents t = Δx/l̂, so
-// |∂κ_j/∂x| ≤ (1/(l̂_j D̂_j), 1/(l̂_j D̂_j) + 1/(l̂_{j+1} D̂_j), 1/(l̂_{j+1} D̂_j)) on
-// the three nodes of joint j, K = Σ_j B_j D̂_j aᵀa with B = max(EI₁, EI₂), and
-// Gershgorin on M^{-1/2} K M^{-1/2} over the node masses (rotary inertia
-// only lowers these frequencies; dropping it keeps the bound safe). For a
-// uniform rod this is ω² ≤ 16 EI/(ρA l̂⁴), the zig-zag flexural mode.
+// Stiff rods (RodSpec::stiff_implicit) integrate every elastic term in the
+// implicit solve (kernels/viscous_implicit.h "Stiff rods"): no linear limit.
+// Their step is an accuracy choice: `accuracy` = ¼/ω₄, ω₄ = (β₄L)²·√(EI/ρA)/L²
+// the fourth clamped–free bending frequency of the rod's mean section
+// (β₄L = 10.9955; EI the larger bending stiffness), i.e. 25 steps a period of
+// the fourth mode. The modes a swing excites lie mostly below it, and the
+// scheme resolves them at second order: at this step a human hair released
+// horizontal is within 1.5e-2 L of the resolved run over 1 s
+// (bench/RESULTS.md "Stiff rods: bending in the solve").
 #pragma once
 
 #include <Eigen/Dense>
@@ -42,49 +39,22 @@ namespace manyrods {
 
 namespace detail {
 
-// Gershgorin bounds (ω², τ·ω²) of the flexural waves of stiff rod r (above).
+// The accuracy step of stiff rod r (above); inf without bending.
 template <Terms kT, class T>
-std::pair<double, double> stiff_rod_bound(const RodBatch<T>& b, int r) {
-  if (!kT.bend) return {0.0, 0.0};
+double stiff_rod_accuracy(const RodBatch<T>& b, int r) {
+  if (!kT.bend) return INFINITY;
   const int n = b.elements(r);
-  std::vector<double> rows(n + 1, 0.0), rows_tau(n + 1, 0.0), mass(n + 1, 0.0);
-  for (int j = 0; j <= n; ++j) {
-    const int k = b.node_index(r, j);
-    mass[j] = b.model.node_inv_mass[k] == 0 ? 0.0 : double(b.model.node_mass[k]);
+  double length = 0, mass = 0, ei = 0;
+  for (int e = 0; e < n; ++e) length += double(b.model.elem_rest_length[b.elem_index(r, e)]);
+  for (int j = 0; j <= n; ++j) mass += double(b.model.node_mass[b.node_index(r, j)]);
+  for (int j = 0; j + 1 < n; ++j) {
+    const int k = b.vor_index(r, j);
+    ei += std::max(double(b.model.vor_stiffness[0][k]), double(b.model.vor_stiffness[1][k]));
   }
-  auto length = [&](int e) { return double(b.model.elem_rest_length[b.elem_index(r, e)]); };
-  // joint j = −1 (root, at node 0: clamp frame and element 0) … n − 2, and
-  // n − 1 (tip, at node n: element n − 1 and the tip's clamp frame; zero
-  // stiffness unless the tip is clamped)
-  for (int j = -1; j < n; ++j) {
-    const int k = j < 0 ? b.root_vor_index(r) : b.vor_index(r, j);
-    const double d = b.model.vor_rest_length[k];
-    const double B = std::max(double(b.model.vor_stiffness[0][k]), double(b.model.vor_stiffness[1][k]));
-    const double tau = kT.kelvin_voigt ? std::max(double(b.model.vor_tau[0][k]), double(b.model.vor_tau[1][k])) : 0.0;
-    // nodes j, j+1, j+2 (the root joint's "element −1" and the tip joint's
-    // "element n" are the fixed clamp frames)
-    const double la = j < 0 ? 0.0 : 1 / (length(j) * d), lb = j + 1 < n ? 1 / (length(j + 1) * d) : 0.0;
-    const double a[3] = {la, la + lb, lb};
-    for (int p = 0; p < 3; ++p) {
-      const int i = j + p;
-      if (i < 0 || i > n || mass[i] == 0) continue;
-      double s = 0;
-      for (int q = 0; q < 3; ++q) {
-        const int m = j + q;
-        if (m >= 0 && m <= n && mass[m] != 0) s += B * d * a[p] * a[q] / std::sqrt(mass[i] * mass[m]);
-      }
-      rows[i] += s;
-      rows_tau[i] += tau * s;
-    }
-  }
-  double w2 = 0, tw2 = 0;
-  for (int i = 0; i <= n; ++i) {
-    w2 = std::max(w2, rows[i]);
-    tw2 = std::max(tw2, rows_tau[i]);
-  }
-  return {w2, tw2};
+  if (n < 2 || !(length > 0) || !(mass > 0) || !(ei > 0)) return INFINITY;
+  const double beta4 = 10.9955, w4 = beta4 * beta4 * std::sqrt(ei / (n - 1) / (mass / length)) / (length * length);
+  return 0.25 / w4;
 }
-
 
 // Gershgorin bounds (ω², τ·ω²) of rod r with explicit shear, stretch and
 // twist: element and joint stiffness blocks (above) over the lumped masses
@@ -178,9 +148,13 @@ template <Terms kT, class T>
 StableDt stable_dt(const RodBatch<T>& b) {
   StableDt out;
   double wmax2 = 0, tau_w2 = 0;
+  out.accuracy = INFINITY;
   for (int r = 0; r < b.rod_count(); ++r) {
-    const auto [w2, tw2] =
-        b.rods[r].stiff_implicit ? detail::stiff_rod_bound<kT>(b, r) : detail::explicit_rod_bound<kT>(b, r);
+    if (b.rods[r].stiff_implicit) {
+      out.accuracy = std::min(out.accuracy, detail::stiff_rod_accuracy<kT>(b, r));
+      continue;
+    }
+    const auto [w2, tw2] = detail::explicit_rod_bound<kT>(b, r);
     wmax2 = std::max(wmax2, w2);
     tau_w2 = std::max(tau_w2, tw2);
   }

@@ -9,7 +9,7 @@
 //   0b. (contact Terms) v, ω saved for the contact work           contact_start_stage
 //   1. drift ½h:  x += ½h v,  Q ← exp(−½h ω) Q                drift
 //   2. strains and total resultants at (x, Q)_{n+½} with the
-//      rates from (v, ω)_n                                     compute_resultants
+//      rates from (v, ω)_n (stiff rods: and −c h C_M U̇_n)      compute_resultants
 //   3. kick h:    v += h m⁻¹ F,  ω += h J⁻¹ C                  segment_kick
 //      (a fluid) v saved before the kick                       fluid_save_stage
 //   4. (M + hD) u⁺ = M u for damped and stiff rods             viscous_update
@@ -115,7 +115,7 @@ void verlet_stages(RodBatch<T>& b, T dt, double t, std::int64_t done, bool solve
     if constexpr (kT.colliders || kT.rod_contact)
       timed(e, thread, Stage::contact, [&] { contact_start_stage(b, e, r); });
     timed(e, thread, Stage::drift, [&] { drift(b, T(0.5) * dt, e, r); });
-    timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r); });
+    timed(e, thread, Stage::resultants, [&] { compute_resultants<kExplicit>(b, e, r, T(-kStiffBendingC) * dt); });
     const bool fluid = b.any_fluid();
     if (fluid) timed(e, thread, Stage::fluid, [&] { fluid_save_stage(b, e, r); });
     timed(e, thread, Stage::kick, [&] { segment_kick<kExplicit>(b, dt, e, r); });

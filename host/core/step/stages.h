@@ -18,13 +18,26 @@ namespace manyrods {
 
 // Resultants: scratch ← strains and total resultants of the current state
 // (element_stage, voronoi_stage_small; joints that turn by more than ½ rad
-// are redone by the general voronoi_stage).
+// are redone by the general voronoi_stage). A stiff segment's bending
+// moments also carry bend_tau times the start-of-step bending rate (the
+// midpoint correction of kernels/viscous_implicit.h "Stiff rods"; the
+// Position Verlet step passes −c h).
 // reads: model, state  writes: scratch
 template <Terms kT, class T>
-void compute_resultants(RodBatch<T>& b, const Exec& ex, const Segment& r) {
+void compute_resultants(RodBatch<T>& b, const Exec& ex, const Segment& r, T bend_tau = T(0)) {
   const ModelView<T> m = b.model_view();
   const ConstStateView<T> s = std::as_const(b).state_view();
   const ScratchView<T> sc = b.scratch_view();
+  if (r.stiff && bend_tau != T(0)) {
+    launch_with_fallback(
+        r.begin, r.end, ex, b.workspace->flags.data(),
+        [&](int k) MANYRODS_KERNEL_LAMBDA {
+          element_stage<kT>(k, m, s, sc);
+          return voronoi_stage_small<kT, true>(k, m, s, sc, bend_tau);
+        },
+        [&](int k) MANYRODS_KERNEL_LAMBDA { voronoi_stage<kT, false, true>(k, m, s, sc, bend_tau); });
+    return;
+  }
   launch_with_fallback(
       r.begin, r.end, ex, b.workspace->flags.data(),
       [&](int k) MANYRODS_KERNEL_LAMBDA {

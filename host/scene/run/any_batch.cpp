@@ -121,19 +121,17 @@ void AnyBatch::set_driver_pose(int driver, const Pose& pose, double until, const
 
 double AnyBatch::scene_dt() const {
   if (from_file_) return visit([&](const auto& b) { return manyrods::scene::scene_dt(*scene_, b); });
-  return 0.9 * stable_dt().elastic;
+  return 0.9 * stable_dt().automatic();
 }
 
 void AnyBatch::check_dt(double dt) const {
   if (dt <= checked_dt_) return;
   const StableDt sd = stable_dt();
   if (std::isfinite(sd.elastic) && sd.elastic > 0 && dt > sd.elastic) {
-    const bool stiff = visit([](const auto& b) { return b.any_stiff(); });
     std::ostringstream os;
     os.precision(4);
     os << "step: dt = " << dt << " s is " << dt / sd.elastic << " x this batch's stable limit " << sd.elastic
-       << " s (stable_dt of what it integrates explicitly" << (stiff ? "; stiff rods: bending" : "")
-       << "); it would blow up. Step at or below the limit (0.9 x the limit = " << 0.9 * sd.elastic
+       << " s (stable_dt of what it integrates explicitly; stiff rods have no limit); it would blow up. Step at or below the limit (0.9 x the limit = " << 0.9 * sd.elastic
        << " s), or force the step to run it anyway (Python: force_dt=True; C: mr_batch_set_force_dt; "
           "docs/scenes.md \"The step-size guard\")";
     throw InputError(os.str());
@@ -229,7 +227,7 @@ void AnyBatch::save(const std::string& path) const {
     const h5::Layout layout = detail::frame_layout(b, std::move(group), std::move(width), std::move(names), true,
                                                    s.has_contact);
     const char* integrator = s.sim.integrator == Integrator::pefrl ? "pefrl" : "position_verlet";
-    const double dt = from_file_ ? manyrods::scene::scene_dt(s, b) : 0.9 * scene_stable_dt(b, choice_).elastic;
+    const double dt = from_file_ ? manyrods::scene::scene_dt(s, b) : 0.9 * scene_stable_dt(b, choice_).automatic();
     h5::Writer w(path, layout, {s.text, s.source, integrator, dt});
     std::vector<T> x, q;
     gather_positions(b, x);

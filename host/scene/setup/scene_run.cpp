@@ -334,20 +334,21 @@ template <class T>
 double scene_dt(const Scene& s, const RodBatch<T>& b) {
   const StableDt sd = scene_stable_dt(b, step_choice(s));
   const bool finite = std::isfinite(sd.elastic) && sd.elastic > 0;
-  if (s.sim.dt_auto && !finite)
+  const double automatic = sd.automatic();
+  if (s.sim.dt_auto && !(std::isfinite(automatic) && automatic > 0))
     throw SceneError(s.source +
                      ": dt = \"auto\": stable_dt gives no finite step (no stiffness?); give dt in seconds");
-  const double dt = s.sim.dt_auto ? sd.elastic * s.sim.dt_safety : s.sim.dt;
+  // stiff rods: dt = "auto" is their accuracy step (StableDt::accuracy), no stability limit
+  const double dt = s.sim.dt_auto ? automatic * s.sim.dt_safety : s.sim.dt;
   if (finite && dt > sd.elastic && !s.sim.force_dt) {
     std::ostringstream os;
     os.precision(4);
     os << s.source << ": simulation." << (s.sim.dt_auto ? "dt_safety = " : "dt = ")
        << (s.sim.dt_auto ? s.sim.dt_safety : s.sim.dt) << (s.sim.dt_auto ? "" : " s")
        << ": the step " << dt << " s is " << dt / sd.elastic << " x this scene's stable limit " << sd.elastic
-       << " s (stable_dt of what it integrates explicitly" << (b.any_stiff() ? "; stiff rods: bending" : "")
-       << "). Use dt = \"auto\" (0.9 x the limit = " << 0.9 * sd.elastic << " s"
-       << (b.any_stiff() ? "; stiff rods that swing hard: dt_safety = 0.5" : "")
-       << "), a dt at or below the limit, or --force-dt to run it anyway (Python: force_dt=True; docs/scenes.md "
+       << " s (stable_dt of what it integrates explicitly; stiff rods have no limit). Use dt = \"auto\" (0.9 x "
+       << (automatic < sd.elastic ? "the stiff rods' accuracy step = " : "the limit = ") << 0.9 * automatic
+       << " s), a dt at or below the limit, or --force-dt to run it anyway (Python: force_dt=True; docs/scenes.md "
           "\"The step-size guard\")";
     throw SceneError(os.str());
   }
