@@ -139,11 +139,13 @@ MR_API mr_status mr_batch_step(mr_batch* b, double dt, int count);
 /* 1: step at any dt (the stable-step guard of mr_batch_step off); 0: guarded
  * (the default; a scene with simulation.force_dt = true starts at 1). */
 MR_API mr_status mr_batch_set_force_dt(mr_batch* b, int force);
-/* The step the scene asks for (its dt, or "auto": 0.9 of the stable step,
- * aligned to its frames); for rods described in C 0.9 of the stable step. */
+/* The step the scene asks for (its dt, or "auto": 0.9 of the stable step, or
+ * of the stiff rods' accuracy step where that is smaller, aligned to its
+ * frames); for rods described in C the same without the frames. */
 MR_API double mr_batch_dt(const mr_batch* b);
 /* The largest stable step of the current state (s): Position Verlet's
- * elastic limit (the implicit Kelvin–Voigt solve adds none). */
+ * elastic limit (the implicit Kelvin–Voigt solve adds none; stiff rods add
+ * none: infinity for a batch of stiff rods only). */
 MR_API double mr_batch_stable_dt(const mr_batch* b);
 /* Threads the step runs on (default 1; the results do not depend on it). */
 MR_API mr_status mr_batch_set_threads(mr_batch* b, int threads);
