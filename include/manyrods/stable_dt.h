@@ -3,6 +3,8 @@
 // the derivation is in host/core/analysis/stable_dt.h).
 #pragma once
 
+#include <limits>
+
 #include "manyrods/batch.h"
 #include "manyrods/step.h"
 #include "manyrods/terms.h"
@@ -17,7 +19,7 @@ struct StableDt {
   // step is an accuracy choice. This is the one dt = "auto" takes for them,
   // h·ω₄ = ¼ with ω₄ the fourth clamped–free bending frequency of each stiff
   // rod (inf: no stiff rod). 2.4e-3 s for human hair, n-independent.
-  double accuracy = 0;
+  double accuracy = std::numeric_limits<double>::infinity();
   // The step dt = "auto" scales by its safety factor: the smaller of the two.
   double automatic() const { return elastic < accuracy ? elastic : accuracy; }
 };

@@ -131,7 +131,8 @@ void AnyBatch::check_dt(double dt) const {
     std::ostringstream os;
     os.precision(4);
     os << "step: dt = " << dt << " s is " << dt / sd.elastic << " x this batch's stable limit " << sd.elastic
-       << " s (stable_dt of what it integrates explicitly; stiff rods have no limit); it would blow up. Step at or below the limit (0.9 x the limit = " << 0.9 * sd.elastic
+       << " s (stable_dt of what it integrates explicitly; stiff rods have no limit); it would blow up. "
+       << "Step at or below the limit (0.9 x the limit = " << 0.9 * sd.elastic
        << " s), or force the step to run it anyway (Python: force_dt=True; C: mr_batch_set_force_dt; "
           "docs/scenes.md \"The step-size guard\")";
     throw InputError(os.str());
