@@ -149,7 +149,6 @@ template <Terms kT, class T>
 StableDt stable_dt(const RodBatch<T>& b) {
   StableDt out;
   double wmax2 = 0, tau_w2 = 0;
-  out.accuracy = INFINITY;
   for (int r = 0; r < b.rod_count(); ++r) {
     if (b.rods[r].stiff_implicit) {
       out.accuracy = std::min(out.accuracy, detail::stiff_rod_accuracy<kT>(b, r));

@@ -28,23 +28,19 @@ void compute_resultants(RodBatch<T>& b, const Exec& ex, const Segment& r, T bend
   const ModelView<T> m = b.model_view();
   const ConstStateView<T> s = std::as_const(b).state_view();
   const ScratchView<T> sc = b.scratch_view();
-  if (r.stiff && bend_tau != T(0)) {
+  auto launch_stages = [&]<bool kBendRate>() {
     launch_with_fallback(
         r.begin, r.end, ex, b.workspace->flags.data(),
         [&](int k) MANYRODS_KERNEL_LAMBDA {
           element_stage<kT>(k, m, s, sc);
-          return voronoi_stage_small<kT, true>(k, m, s, sc, bend_tau);
+          return voronoi_stage_small<kT, kBendRate>(k, m, s, sc, bend_tau);
         },
-        [&](int k) MANYRODS_KERNEL_LAMBDA { voronoi_stage<kT, false, true>(k, m, s, sc, bend_tau); });
-    return;
-  }
-  launch_with_fallback(
-      r.begin, r.end, ex, b.workspace->flags.data(),
-      [&](int k) MANYRODS_KERNEL_LAMBDA {
-        element_stage<kT>(k, m, s, sc);
-        return voronoi_stage_small<kT>(k, m, s, sc);
-      },
-      [&](int k) MANYRODS_KERNEL_LAMBDA { voronoi_stage<kT>(k, m, s, sc); });
+        [&](int k) MANYRODS_KERNEL_LAMBDA { voronoi_stage<kT, false, kBendRate>(k, m, s, sc, bend_tau); });
+  };
+  if (r.stiff && bend_tau != T(0))
+    launch_stages.template operator()<true>();
+  else
+    launch_stages.template operator()<false>();
 }
 
 // Drift: x += h v, Q ← exp(−h ω) Q (kinematic_node, kinematic_element_small;
