@@ -248,10 +248,12 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
   const bool delta = stiff_h == T(0);  // delta form (see below) for all but stiff rods
   Block6<T> carry;  // contributions to the next cell's diagonal block
   for (int i = 0; i < 36; ++i) carry.a[i] = T(0);
-  Block6<T> u_prev;  // U_{c−1}
+  Block6<T> u_prev;       // U_{c−1} as the elimination uses it (fixed rows and columns zeroed)
+  Block6<T> coupled_prev;  // U_{c−1} in full: the right-hand side's coupling to cell c−1
   T g_prev[6] = {T(0), T(0), T(0), T(0), T(0), T(0)};
+  T fixed_prev[6] = {T(0), T(0), T(0), T(0), T(0), T(0)};  // 1: cell c−1's unknown is fixed
   Block6<T> G_prev;
-  for (int i = 0; i < 36; ++i) G_prev.a[i] = u_prev.a[i] = T(0);
+  for (int i = 0; i < 36; ++i) G_prev.a[i] = u_prev.a[i] = coupled_prev.a[i] = T(0);
   for (int c = 0; c < cells; ++c) {
     const int k = first + c;
     Block6<T> A = carry, U;
@@ -300,21 +302,31 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
     // Not for stiff rods (stiff_h > 0): there u⁻ holds the huge pre-solve
     // velocities of the stiff modes (h|ω⁻| ≫ 1) and Δu ≈ −u⁻ cancels them, so
     // u⁻ + Δu would lose every digit of u⁺; the direct form M u⁻ computes u⁺
-    // itself.
+    // itself. Fixed unknowns keep their values: Δu = 0 there in delta form;
+    // in the direct form their prescribed values p (u⁻ on the fixed
+    // unknowns, 0 elsewhere: non-zero for a driven hold besides the
+    // reference one) move to the right-hand side, y = M u⁻ − hD p, and y = p
+    // on their own rows (kernels/viscous_implicit_lanes.h kLift). Both use
+    // the full coupling to cell c−1 (its fixed rows included).
+    const int kp = c > 0 ? k - 1 : k, kn = k + 1;  // c = 0: U_{−1} = 0
+    const T up[6] = {s.node_v[0][kp], s.node_v[1][kp], s.node_v[2][kp],
+                     s.elem_w[0][kp], s.elem_w[1][kp], s.elem_w[2][kp]};
+    const T un[6] = {s.node_v[0][kn], s.node_v[1][kn], s.node_v[2][kn],
+                     s.elem_w[0][kn], s.elem_w[1][kn], s.elem_w[2][kn]};
+    const T nmi[6] = {m.node_inv_mass[kn], m.node_inv_mass[kn], m.node_inv_mass[kn],
+                      m.elem_inv_inertia[0][kn], m.elem_inv_inertia[1][kn], m.elem_inv_inertia[2][kn]};
     T y[6];
-    if (delta) {
-      const int kp = c > 0 ? k - 1 : k, kn = k + 1;  // c = 0: U_{−1} = 0
-      const T up[6] = {s.node_v[0][kp], s.node_v[1][kp], s.node_v[2][kp],
-                       s.elem_w[0][kp], s.elem_w[1][kp], s.elem_w[2][kp]};
-      const T un[6] = {s.node_v[0][kn], s.node_v[1][kn], s.node_v[2][kn],
-                       s.elem_w[0][kn], s.elem_w[1][kn], s.elem_w[2][kn]};
-      for (int i = 0; i < 6; ++i) {
-        T acc = T(0);
-        for (int j = 0; j < 6; ++j) acc += A.a[6 * i + j] * u[j] + U.a[6 * i + j] * un[j] + u_prev.a[6 * j + i] * up[j];
-        y[i] = -acc;
+    for (int i = 0; i < 6; ++i) {
+      const bool fixed = minv[i] == T(0);
+      T acc = T(0);
+      for (int j = 0; j < 6; ++j) {
+        // delta: all of u⁻; direct: the fixed unknowns' values only
+        const T uj = delta || minv[j] == T(0) ? u[j] : T(0);
+        const T nj = delta || (c + 1 < cells && nmi[j] == T(0)) ? un[j] : T(0);
+        const T pj = delta || fixed_prev[j] != T(0) ? up[j] : T(0);
+        acc += A.a[6 * i + j] * uj + U.a[6 * i + j] * nj + coupled_prev.a[6 * j + i] * pj;
       }
-    } else {
-      for (int i = 0; i < 6; ++i) y[i] = mass[i] * u[i];
+      y[i] = delta ? (fixed ? T(0) : -acc) : (fixed ? u[i] : mass[i] * u[i] - acc);
     }
     for (int i = 0; i < 6; ++i) A.a[7 * i] += mass[i];
     // elimination: Â_c = A_c − U_{c−1}ᵀ G_{c−1},  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1}
@@ -328,22 +340,20 @@ MANYRODS_HD inline void viscous_implicit_rod(int first, int cells, T h, T stiff_
       for (int l = 0; l < 6; ++l) acc += u_prev.a[6 * l + i] * g_prev[l];
       y[i] -= acc;
     }
-    for (int i = 0; i < 6; ++i)
-      if (minv[i] == T(0)) {  // fixed: u = 0, decoupled
+    for (int i = 0; i < 36; ++i) coupled_prev.a[i] = U.a[i];
+    for (int i = 0; i < 6; ++i) {
+      fixed_prev[i] = minv[i] == T(0) ? T(1) : T(0);
+      if (minv[i] == T(0)) {  // fixed: u = y (0 or p), decoupled
         for (int j = 0; j < 6; ++j) A.a[6 * i + j] = A.a[6 * j + i] = T(0);
         A.a[7 * i] = T(1);
-        y[i] = T(0);
         for (int j = 0; j < 6; ++j) U.a[6 * i + j] = T(0);
       }
+    }
     // the next cell's fixed unknowns: zero their columns of U
-    if (c + 1 < cells) {
-      const int kn = k + 1;
-      const T nmi[6] = {m.node_inv_mass[kn], m.node_inv_mass[kn], m.node_inv_mass[kn],
-                        m.elem_inv_inertia[0][kn], m.elem_inv_inertia[1][kn], m.elem_inv_inertia[2][kn]};
+    if (c + 1 < cells)
       for (int j = 0; j < 6; ++j)
         if (nmi[j] == T(0))
           for (int i = 0; i < 6; ++i) U.a[6 * i + j] = T(0);
-    }
     cholesky6(A);
     if (keep) {
       for (int i = 0; i < 6; ++i)

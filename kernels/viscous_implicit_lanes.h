@@ -51,7 +51,15 @@
 // host/core/step/launch.h launch_with_fallback does.
 //
 // Fixed unknowns (zero inverse mass: a clamped node, a ghost element) become
-// identity rows with u = 0, per lane, as in the scalar kernel.
+// identity rows with u = 0, per lane, as in the scalar kernel. With kLift
+// (rods with prescribed velocities: a driven hold besides the reference
+// one, kernels/viscous_implicit.h) they keep their values p instead, and the
+// system's coupling to them moves to the right-hand side,
+//   y_c = M u⁻_c − [(A_c − M) p_c + U_c p_{c+1} + U_{c−1}ᵀ p_{c−1}]
+// on the free unknowns (p: u⁻ on the fixed unknowns, 0 elsewhere), y = p on
+// the fixed ones: the solution of (M + hD) u⁺ = M u⁻ with u⁺ = p there
+// (tests/test_implicit_lanes.cpp checks it against the dense system,
+// lifted by Eigen).
 //
 // reads: model, state geometry and velocities of the W rods
 // writes: node_v, elem_w of their cells, and the elimination scratch:
@@ -100,6 +108,7 @@ struct Cell {
   T y[6][W];      // M u⁻
   T carry[12][W]; // the next cell's diagonal block so far: A_vv (lt 0–5), A_ωω (lt of the ω part)
   T minv[4][W];   // inverse node mass, inverse element inertia (0: fixed unknown)
+  T lift[6][W];   // kLift: U_cᵀ p_c, this cell's prescribed values' share of the next cell's y
   int general[W]; // lane needs the general (large-rotation) joint strain
 };
 
@@ -194,11 +203,31 @@ MANYRODS_HD inline void joint_weights(T h, T stiff_h, T d, vec3<T> cm, vec3<T> t
   v[2] = kT.twist ? hd * cm.z * (t.z + stiff_h) : T(0);
 }
 
+// Prescribed values (kLift, see viscous_implicit_lanes): p = u on the
+// fixed unknowns (zero inverse mass), 0 on the others.
+template <class T>
+MANYRODS_HD inline void fixed_values(const T (&u)[6], const T (&minv)[4], T (&p)[6]) {
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 3; ++i) {
+    p[i] = minv[0] == T(0) ? u[i] : T(0);
+    p[3 + i] = minv[1 + i] == T(0) ? u[3 + i] : T(0);
+  }
+}
+
+// kLift: a free unknown's right-hand side loses the coupling r to the
+// prescribed values; a fixed one's is its value (fix_lane keeps it).
+template <int W, class T>
+MANYRODS_HD inline void lift_rows(int l, const T (&minv)[4], const T (&p)[6], const T (&r)[6], Cell<T, W>& cur) {
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 6; ++i)
+    cur.y[i][l] = minv[i < 3 ? 0 : i - 2] == T(0) ? p[i] : cur.y[i][l] - r[i];
+}
+
 // Assembles cell c of lane l into `cur` from the packed inputs P (cells c
 // and c+1) and the block `prev` carried over from cell c−1: A_c (lower), U_c,
 // y_c, the inverse masses, and the next cell's carry. kLast: the last cell
 // (its element and joint k+1 are ghosts, see the header; no U, no carry).
-template <Terms kT, bool kSmall, bool kLast, int W, class T>
+template <Terms kT, bool kSmall, bool kLast, int W, class T, bool kLift = false>
 MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P, const Cell<T, W>& prev,
                                       Cell<T, W>& cur) {
   const int p = c * W + l, q = p + W;  // this cell, the next one
@@ -224,6 +253,21 @@ MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P,
     for (int i = 0; i < 3; ++i)
       MANYRODS_UNROLL_ALL
       for (int j = 0; j < 3; ++j) cur.A[lt(3 + i, j)][l] = T(0);
+    if constexpr (kLift) {  // y −= (A − M) p + U_{c−1}ᵀ p_{c−1}
+      T p[6], r[6];
+      fixed_values(u, minv, p);
+      MANYRODS_UNROLL_ALL
+      for (int i = 0; i < 6; ++i) r[i] = prev.lift[i][l];
+      MANYRODS_UNROLL_ALL
+      for (int i = 0; i < 3; ++i)
+        MANYRODS_UNROLL_ALL
+        for (int j = 0; j < 3; ++j) {
+          const int t = i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i;
+          r[i] += prev.carry[t][l] * p[j];
+          r[3 + i] += prev.carry[6 + t][l] * p[3 + j];
+        }
+      lift_rows(l, minv, p, r, cur);
+    }
   } else {
     // element k (element_strain): a = Q e; ŵ = h C_F τ / l̂, P = diag(ŵ) Q
     mat3<T> Qk, Qn;
@@ -296,6 +340,38 @@ MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P,
         cur.U[ui(3 + i, j)][l] = rw | cv ? T(0) : -X[3 * i + j];
         cur.U[ui(3 + i, 3 + j)][l] = rw | cw ? T(0) : -sRt[3 * i + j];
       }
+    if constexpr (kLift) {
+      // y −= (A − M) p + U p_{c+1} + U_{c−1}ᵀ p_{c−1} with the full blocks
+      // (A_vv = carry + N, A_ωω = carry + [a]×ᵀdiag(ŵ)[a]× + S, A_ωv = X;
+      // U_vv = −N, U_ωv = −X, U_ωω = −S Rᵀ), and U_cᵀ p_c for the next cell
+      const T un[6] = {P[kV][q], P[kV + 1][q], P[kV + 2][q], P[kOmega][q], P[kOmega + 1][q], P[kOmega + 2][q]};
+      T p[6], pn[6], r[6];
+      fixed_values(u, minv, p);
+      fixed_values(un, nminv, pn);
+      MANYRODS_UNROLL_ALL
+      for (int i = 0; i < 6; ++i) r[i] = prev.lift[i][l];
+      MANYRODS_UNROLL_ALL
+      for (int i = 0; i < 3; ++i)
+        MANYRODS_UNROLL_ALL
+        for (int j = 0; j < 3; ++j) {
+          const int t = i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i;
+          const T avv = prev.carry[t][l] + N[3 * i + j], aww = prev.carry[6 + t][l] + Mw[t] + s6[t];
+          r[i] += avv * p[j] + X[3 * j + i] * p[3 + j] - N[3 * i + j] * pn[j];
+          r[3 + i] += X[3 * i + j] * p[j] + aww * p[3 + j] - X[3 * i + j] * pn[j] - sRt[3 * i + j] * pn[3 + j];
+        }
+      lift_rows(l, minv, p, r, cur);
+      MANYRODS_UNROLL_ALL
+      for (int j = 0; j < 3; ++j) {
+        T lv = T(0), lw = T(0);
+        MANYRODS_UNROLL_ALL
+        for (int i = 0; i < 3; ++i) {
+          lv -= N[3 * i + j] * p[i] + X[3 * i + j] * p[3 + i];
+          lw -= sRt[3 * i + j] * p[3 + i];
+        }
+        cur.lift[j][l] = lv;
+        cur.lift[3 + j][l] = lw;
+      }
+    }
   }
 }
 
@@ -329,8 +405,9 @@ MANYRODS_HD inline void schur_lane(int l, int at, const Cell<T, W>& prev, const 
   }
 }
 
-// Fixed unknowns (zero inverse mass): u = 0, decoupled (identity rows).
-template <int W, class T>
+// Fixed unknowns (zero inverse mass): u = 0 (kLift: their prescribed value,
+// already in y), decoupled (identity rows).
+template <int W, class T, bool kLift = false>
 MANYRODS_HD inline void fix_lane(int l, const Cell<T, W>& cur, T (&A)[21], T (&y)[6]) {
   bool fixed[6];
   MANYRODS_UNROLL_ALL
@@ -340,7 +417,7 @@ MANYRODS_HD inline void fix_lane(int l, const Cell<T, W>& cur, T (&A)[21], T (&y
     MANYRODS_UNROLL_ALL
     for (int j = 0; j < i; ++j) A[lt(i, j)] = fixed[i] | fixed[j] ? T(0) : A[lt(i, j)];
     A[lt(i, i)] = fixed[i] ? T(1) : A[lt(i, i)];
-    y[i] = fixed[i] ? T(0) : y[i];
+    if constexpr (!kLift) y[i] = fixed[i] ? T(0) : y[i];
   }
 }
 
@@ -410,7 +487,7 @@ MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell
 // the last cell), stored in the scratch.
 // kKeep: the factors also kept for more right-hand sides (kernels/
 // viscous_implicit.h kKeepValues: Â_c's factor, U_c, the inverse masses).
-template <bool kFirst, bool kLast, int W, class T, bool kKeep = false>
+template <bool kFirst, bool kLast, int W, class T, bool kKeep = false, bool kLift = false>
 MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cell<T, W>& cur,
                                        const ImplicitScratchView<T>& sc, T* const* keep = nullptr) {
   T A[21], y[6];
@@ -419,7 +496,7 @@ MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cel
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) y[i] = cur.y[i][l];
   if constexpr (!kFirst) schur_lane(l, (c - 1) * W + l, prev, sc, A, y);
-  fix_lane(l, cur, A, y);
+  fix_lane<W, T, kLift>(l, cur, A, y);
   factor_lane(A);
   solve_lane(A, y);
   const int at = c * W + l;
@@ -554,8 +631,9 @@ MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView
 //
 // kKeep: the factors are also kept in `keep` (kKeepValues arrays of W·n
 // values, the layout of kKeepValues in kernels/viscous_implicit.h) for more
-// right-hand sides (the contacts of kernels/contact_solve.h).
-template <Terms kT, int W, bool kKeep = false, class T, class Tc>
+// right-hand sides (the contacts of kernels/contact_solve.h). kLift: the
+// fixed unknowns keep their prescribed values (see the header).
+template <Terms kT, int W, bool kKeep = false, bool kLift = false, class T, class Tc>
 MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cells, T h, const T* stiff_h,
                                                const ModelView<T>& m, const StateView<T>& s,
                                                const ImplicitScratchView<Tc>& sc, Tc* const* keep = nullptr) {
@@ -597,32 +675,35 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
   };
   for (int i = 0; i < 12; ++i)  // nothing is carried into cell 0 (idle or root ghost in every lane)
     for (int l = 0; l < W; ++l) cell[1].carry[i][l] = Tc(0);
+  if constexpr (kLift)
+    for (int i = 0; i < 6; ++i)
+      for (int l = 0; l < W; ++l) cell[1].lift[i][l] = Tc(0);
   // 1. forward elimination
   for (int c = 0; c < n; ++c) {
     const Cell<Tc, W>& prev = cell[(c + 1) & 1];
     Cell<Tc, W>& cur = cell[c & 1];
     if (c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) assemble_lane<kT, true, false>(l, c, hc, sh[l], P, prev, cur);
+      for (int l = 0; l < W; ++l) assemble_lane<kT, true, false, W, Tc, kLift>(l, c, hc, sh[l], P, prev, cur);
       if (any_general(cur))
         for (int l = 0; l < W; ++l)
-          if (cur.general[l]) assemble_lane<kT, false, false>(l, c, hc, sh[l], P, prev, cur);
+          if (cur.general[l]) assemble_lane<kT, false, false, W, Tc, kLift>(l, c, hc, sh[l], P, prev, cur);
     } else {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) assemble_lane<kT, true, true>(l, c, hc, sh[l], P, prev, cur);
+      for (int l = 0; l < W; ++l) assemble_lane<kT, true, true, W, Tc, kLift>(l, c, hc, sh[l], P, prev, cur);
     }
     if (c == 0 && c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<true, false, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<true, false, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
     } else if (c == 0) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<true, true, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<true, true, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
     } else if (c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<false, false, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<false, false, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
     } else {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<false, true, W, Tc, kKeep>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<false, true, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
     }
   }
   // 2. back substitution, then u⁺ out to the rods (their own cells only)

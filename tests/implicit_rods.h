@@ -65,19 +65,23 @@ inline RodSpec random_rod(std::mt19937& rng, int n, bool clamped, double tau_s, 
 
 // The system A u = b of rod `rod` exactly as viscous_implicit_rod builds it
 // (same maps; in T, then to double; fixed unknowns: identity rows), with
-// A − M = hD (fixed rows and columns zeroed) and u⁻.
+// A − M = hD (fixed rows and columns zeroed) and u⁻. `prescribed`: the fixed
+// unknowns keep their values p = u⁻ (b = p on their rows) and the free rows'
+// coupling to them moves to b, b = M u⁻ − hD_fp p, done here in double from
+// the dense blocks (an independent lifting); Avisc then holds those
+// couplings too (for the round-off scale).
 struct RodSystem {
   Eigen::SparseMatrix<double> A, Avisc;
   Eigen::VectorXd rhs, uminus;
 };
 
 template <Terms kT, class T>
-RodSystem rod_system(const RodBatch<T>& b, int rod, T h, T stiff_h) {
+RodSystem rod_system(const RodBatch<T>& b, int rod, T h, T stiff_h, bool prescribed = false) {
   using namespace viscous_detail;
   const ModelView<T> m = b.model_view();
   const ConstStateView<T> s = b.state_view();
   const int first = b.rods[rod].offset + 1, cells = b.rods[rod].elements + 1, N = 6 * cells;
-  std::vector<Eigen::Triplet<double>> a, av;
+  std::vector<Eigen::Triplet<double>> a, av, lift;
   RodSystem sys;
   sys.rhs.resize(N);
   sys.uminus.resize(N);
@@ -102,6 +106,10 @@ RodSystem rod_system(const RodBatch<T>& b, int rod, T h, T stiff_h) {
             for (int l = 0; l < 3; ++l)
               acc += double(parts[p].map.m[3 * l + i]) * ww[l] * double(parts[q].map.m[3 * l + j]);
             const int r = parts[p].at + i, col = parts[q].at + j;
+            if (prescribed && !fixed[r] && fixed[col]) {
+              lift.emplace_back(r, col, double(h) * acc);
+              av.emplace_back(r, col, double(h) * acc);
+            }
             if (fixed[r] || fixed[col]) continue;
             a.emplace_back(r, col, double(h) * acc);
             av.emplace_back(r, col, double(h) * acc);
@@ -133,9 +141,10 @@ RodSystem rod_system(const RodBatch<T>& b, int rod, T h, T stiff_h) {
       const int r = 6 * c + i;
       sys.uminus(r) = u[i];
       a.emplace_back(r, r, fixed[r] ? 1.0 : mass[i]);
-      sys.rhs(r) = fixed[r] ? 0.0 : mass[i] * u[i];
+      sys.rhs(r) = fixed[r] ? (prescribed ? u[i] : 0.0) : mass[i] * u[i];
     }
   }
+  for (const Eigen::Triplet<double>& t : lift) sys.rhs(t.row()) -= t.value() * sys.uminus(t.col());
   sys.A.resize(N, N);
   sys.A.setFromTriplets(a.begin(), a.end());
   sys.Avisc.resize(N, N);
@@ -146,8 +155,8 @@ RodSystem rod_system(const RodBatch<T>& b, int rod, T h, T stiff_h) {
 // The round-off scale s = |A⁻¹|(d dᵀ|u| + |b| + |A − M||u⁻|) per unknown (6
 // per cell: v, ω) of rod `rod`'s system (dense: short rods only).
 template <Terms kT, class T>
-Eigen::VectorXd solve_scale(const RodBatch<T>& b, int rod, T h, T stiff_h) {
-  const RodSystem sys = rod_system<kT>(b, rod, h, stiff_h);
+Eigen::VectorXd solve_scale(const RodBatch<T>& b, int rod, T h, T stiff_h, bool prescribed = false) {
+  const RodSystem sys = rod_system<kT>(b, rod, h, stiff_h, prescribed);
   const Eigen::MatrixXd A(sys.A), Avisc(sys.Avisc);
   const Eigen::MatrixXd Ainv = A.inverse();
   const Eigen::VectorXd x = Ainv * sys.rhs;

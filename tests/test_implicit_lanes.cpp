@@ -167,6 +167,103 @@ TEST(ImplicitLanes, KernelMatchesScalarFloat) {
 
 namespace {
 
+// Prescribed velocities (a driven hold besides the reference one, whose
+// value the solve must keep: kernels/viscous_implicit_lanes.h kLift).
+// W random rods (lane_rods) with interior holds (clamped: the node and both
+// elements' frames; pinned: the node) besides their held roots and tips;
+// every fixed unknown of lanes 0 … W−2 gets a random non-zero value, as
+// driven holds have (the root ghost's clamp frame stays at rest: the solve
+// runs relative to a driven root's motion, which leaves it at rest). The
+// reference is the dense system with those values moved to the right-hand
+// side by Eigen in double (rod_system with `prescribed`: independent of the
+// kernels' lifting), solved by LU. Against it, within the header's
+// round-off bound (the scale with the lifted couplings): the lane kernel
+// with kLift at W lanes and at 1 lane, and the scalar kernel (delta form for
+// rods that are not stiff, direct form for stiff ones). The fixed unknowns
+// keep their values exactly (identity rows: no rounding touches them).
+// Lane W−1's fixed unknowns stay at rest (the case of every rod without
+// prescribed velocities).
+template <Terms kT, class T, int W>
+void prescribed_vs_dense(unsigned seed, int elements, double h) {
+  std::mt19937 rng(seed);
+  std::vector<RodSpec> specs = lane_rods(rng, W, std::vector<int>(W, elements));
+  for (int l = 0; l < W; ++l) {
+    if (l % 3 != 2) specs[l].holds.push_back({elements / 2, l % 2 ? HoldKind::clamped : HoldKind::pinned, nullptr});
+    if (l % 4 == 1) specs[l].holds.push_back({elements / 2 + 2, HoldKind::pinned, nullptr});
+  }
+  RodBatch<T> b = build_batch<T>(specs);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const int cells = elements + 1;
+  int fixed_count = 0;
+  for (int l = 0; l + 1 < W; ++l)
+    for (int c = 0; c < cells; ++c) {
+      const int k = b.rods[l].offset + 1 + c;
+      for (int d = 0; d < 3; ++d) {
+        if (b.model.node_inv_mass[k] == T(0)) b.state.node_v[d][k] = T(0.1 * u(rng)), ++fixed_count;
+        if (b.model.elem_inv_inertia[d][k] == T(0)) b.state.elem_w[d][k] = T(2 * u(rng)), ++fixed_count;
+      }
+    }
+  ASSERT_GT(fixed_count, 3 * W);
+  int first[W], n[W];
+  T stiff_h[W];
+  for (int l = 0; l < W; ++l) {
+    first[l] = b.rods[l].offset + 1;
+    n[l] = cells;
+    stiff_h[l] = b.rods[l].stiff_implicit ? T(h) : T(0);
+  }
+  auto prepared = [&]() {
+    RodBatch<T> x = b;
+    x.reserve_implicit_scratch(1, W * (elements + 2));
+    return x;
+  };
+  RodBatch<T> lanes = prepared(), one = prepared(), scalar = prepared();
+  viscous_implicit_lanes<kT, W, false, true>(first, n, T(h), stiff_h, lanes.model_view(), lanes.state_view(),
+                                             lanes.implicit_scratch_view(0, 0));
+  for (int l = 0; l < W; ++l) {
+    viscous_implicit_lanes<kT, 1, false, true>(first + l, n + l, T(h), stiff_h + l, one.model_view(),
+                                               one.state_view(), one.implicit_scratch_view(0, 0));
+    viscous_implicit_rod<kT>(first[l], cells, T(h), stiff_h[l], scalar.model_view(), scalar.state_view(),
+                             scalar.implicit_scratch_view(0, 0));
+  }
+  const std::string tag = std::string(sizeof(T) == 4 ? "float" : "double") + " W=" + std::to_string(W) +
+                          (kT.kelvin_voigt ? " KV" : " stiff only") + " h=" + std::to_string(h);
+  Checker ck_lanes("prescribed lanes " + tag, unit_roundoff<T>(), kLimit);
+  Checker ck_one("prescribed 1 lane " + tag, unit_roundoff<T>(), kLimit);
+  Checker ck_scalar("prescribed scalar " + tag, unit_roundoff<T>(), kLimit);
+  for (int l = 0; l < W; ++l) {
+    const RodSystem sys = rod_system<kT>(b, l, T(h), stiff_h[l], true);
+    const Eigen::VectorXd want = Eigen::MatrixXd(sys.A).partialPivLu().solve(sys.rhs);
+    const Eigen::VectorXd scale = solve_scale<kT>(b, l, T(h), stiff_h[l], true);
+    const Eigen::VectorXd got[3] = {rod_velocities(lanes, l), rod_velocities(one, l), rod_velocities(scalar, l)};
+    Checker* ck[3] = {&ck_lanes, &ck_one, &ck_scalar};
+    for (int i = 0; i < 6 * cells; ++i) {
+      const int c = i / 6;
+      for (int v = 0; v < 3; ++v)
+        ck[v]->num(got[v](i), want(i), scale(i), where("cell", l, c) + " unknown " + std::to_string(i % 6));
+      const int k = first[l] + c;
+      const T minv = i % 6 < 3 ? b.model.node_inv_mass[k] : b.model.elem_inv_inertia[i % 6 - 3][k];
+      if (minv == T(0))
+        for (int v = 0; v < 3; ++v)
+          EXPECT_EQ(got[v](i), sys.uminus(i)) << "a fixed unknown keeps its value: lane " << l << " unknown " << i;
+    }
+  }
+}
+
+}  // namespace
+
+TEST(ImplicitLanes, PrescribedVelocitiesMatchTheDenseSolveDouble) {
+  for (unsigned seed = 1; seed <= 3; ++seed)
+    for (double h : {1e-5, 1e-3}) prescribed_vs_dense<kAllTerms, double, 8>(seed + 40, 10, h);
+  prescribed_vs_dense<kNoKV, double, 8>(51, 12, 1e-4);  // stiff rods only
+}
+
+TEST(ImplicitLanes, PrescribedVelocitiesMatchTheDenseSolveFloat) {
+  for (unsigned seed = 1; seed <= 3; ++seed)
+    for (double h : {1e-5, 1e-3}) prescribed_vs_dense<kAllTerms, float, 16>(seed + 60, 10, h);
+}
+
+namespace {
+
 // A batch of mixed lengths: groups and remainders of several element counts,
 // interleaved, undamped rods (no solve), stiff rods, and one rod longer than a
 // segment (a segment of its own).

@@ -182,8 +182,8 @@ struct RodInfo {
   bool damped = false;          // some retardation time > 0
   bool driven = false;          // some hold on a motion (entries of RodBatch::driven)
   // held unknowns with prescribed, possibly non-zero, velocities besides the
-  // reference hold (DrivenHold::reference): its implicit solve is the scalar
-  // kernel's delta form (host/core/step/implicit_plan.cpp), which keeps them exactly
+  // reference hold (DrivenHold::reference): its implicit solve keeps them
+  // (host/core/step/implicit_plan.h, SolveGroup::lift)
   bool prescribed = false;
   // its first driven hold is the reference of the implicit solve
   // (DrivenHold::reference): a driven root, or a stiff rod's only hold

@@ -465,8 +465,8 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
   info.driven = driven > 0;
   // the implicit solve runs relative to the reference hold's rigid motion (a
   // driven root; else a stiff rod's only hold, driven, at its tip): every
-  // other held unknown must then have its prescribed velocity kept, which
-  // the scalar kernel's delta form does exactly and the direct form does not
+  // other held unknown keeps its prescribed velocity, moved to the right-hand
+  // side of the solve (kernels/viscous_implicit_lanes.h kLift)
   info.driven_reference =
       s.root_motion != nullptr || (s.stiff_implicit && driven == 1 && held == 1 && s.holds.empty());
   info.prescribed = driven > 0 && held > (info.driven_reference ? 1 : 0);
@@ -477,12 +477,6 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
     info.contact_radius = contact_radius(s.section);
     info.tau = resolve_damping(s.damping, info.elastic);
     info.damped = info.tau.shear > 0 || info.tau.extension > 0;
-    if (s.stiff_implicit && driven == 1 && held == 1 && s.holds.size() == 1)
-      fail("holds: a stiff rod's single driven hold must be at the root or the tip, not an interior node");
-    if (s.stiff_implicit && info.prescribed)
-      fail(std::string("holds: a stiff rod's holds must all be static, or be a single driven hold at the root "
-                       "or the tip (its implicit solve runs relative to that one motion); this rod has ") +
-           std::to_string(held) + " held nodes, " + std::to_string(driven) + " of them driven");
   } catch (const InputError& e) {
     throw InputError("rod " + std::to_string(r) + " ('" + s.name + "'): " + e.what());
   }

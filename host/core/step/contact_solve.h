@@ -10,9 +10,9 @@
 //                                acts, solved through the factors, the
 //                                group's rods together (one per SIMD lane)
 //   contact_solve_stage          after the solve, the rest: each rod the solve
-//                                steps that it did not take (prescribed
-//                                velocities, a float batch's stiff
-//                                rod, a partitioned long rod; every rod with
+//                                steps that it did not take (a float
+//                                batch's stiff rod, a partitioned
+//                                long rod; every rod with
 //                                self contact, whose lists the broad phase
 //                                builds after the solve) finds its collider
 //                                and self contacts at the solve's geometry
@@ -655,10 +655,11 @@ void restore_pre_solve(RodBatch<T>& b, int ri, const ContactView<T>& cv) {
 // (solve_group_with_contacts), so that a rod's velocities do not depend on
 // which of them solved it (two inlined copies may contract a·b + c into FMAs
 // differently).
-template <Terms kKernel, int W, class Tc, class T>
+// kLift: rods with prescribed velocities (SolveGroup::lift).
+template <Terms kKernel, int W, bool kLift = false, class Tc, class T>
 MANYRODS_NOINLINE void solve_lanes_kept(const int* first, const int* cells, T h, const T* stiff_h, const ModelView<T>& m,
                                         const StateView<T>& s, const ImplicitScratchView<Tc>& sc, Tc* const* keep) {
-  viscous_implicit_lanes<kKernel, W, true>(first, cells, h, stiff_h, m, s, sc, keep);
+  viscous_implicit_lanes<kKernel, W, true, kLift>(first, cells, h, stiff_h, m, s, sc, keep);
 }
 
 // Rods rods[0 … count) (count ≤ W) solved again from u⁻ as one lane group
@@ -666,10 +667,12 @@ MANYRODS_NOINLINE void solve_lanes_kept(const int* first, const int* cells, T h,
 // group short of W fills up with its last rod), each rod relative to its
 // reference hold hold_of(rod) (−1: none), the factors kept in `keep`
 // (pointers kp); returns the group's cells (with the root ghost), each
-// lane's cells in `cells`.
+// lane's cells in `cells`. lift: rods with prescribed velocities, as the
+// solve takes them (SolveGroup::lift).
 template <Terms kKernel, int W, class Tc, class T, class HoldOf>
 int solve_group_again(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv, std::vector<Tc>& keep,
-                      const ImplicitScratchView<Tc>& sc, Tc* (&kp)[kKeepValues], int (&cells)[W], HoldOf&& hold_of) {
+                      const ImplicitScratchView<Tc>& sc, Tc* (&kp)[kKeepValues], int (&cells)[W], bool lift,
+                      HoldOf&& hold_of) {
   const ModelView<T> m = b.model_view();
   const StateView<T> s = b.state_view();
   int first[W], hold[W], n = 0;  // hold: each rod's reference hold, or −1
@@ -689,7 +692,10 @@ int solve_group_again(RodBatch<T>& b, const int* rods, int count, T h, const Con
     if (hold[j] >= 0) shift_hold(b, hold[j], T(-1));
   }
   keep_pointers(keep, W * n, kp);
-  solve_lanes_kept<kKernel, W>(first, cells, h, stiff_h, m, s, sc, kp);
+  if (lift)
+    solve_lanes_kept<kKernel, W, true>(first, cells, h, stiff_h, m, s, sc, kp);
+  else
+    solve_lanes_kept<kKernel, W>(first, cells, h, stiff_h, m, s, sc, kp);
   for (int j = 0; j < count; ++j)
     if (hold[j] >= 0) shift_hold(b, hold[j], T(1));
   return n;
@@ -702,10 +708,10 @@ int solve_group_again(RodBatch<T>& b, const int* rods, int count, T h, const Con
 template <Terms kKernel, int W, class Tc, class T>
 void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
                                ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
-                               const Segment& r) {
+                               const Segment& r, bool lift) {
   int cells[W];
   Tc* kp[kKeepValues];
-  const int n = solve_group_again<kKernel, W>(b, rods, count, h, cv, keep, sc, kp, cells,
+  const int n = solve_group_again<kKernel, W>(b, rods, count, h, cv, keep, sc, kp, cells, lift,
                                               [&](int ri) { return reference_hold(b, r, ri); });
   RodContacts<T>* lanes = buf.lanes_for(W);
   bool any = false;
@@ -717,38 +723,6 @@ void solve_group_with_contacts(RodBatch<T>& b, const int* rods, int count, T h, 
   if (any) group_contacts_through_factors<W>(b, h, cv, buf, lane_pointers<T, W>(buf).data(), kp, sc.G, n);
 }
 
-// Rod ri with prescribed velocities solved again from u⁻ with the scalar
-// kernel (its delta form, as the solve takes it), relative to its reference
-// hold `hold` (−1: none), the factors kept in `keep` (pointers kp; the
-// rod's cells from 0, no ghost).
-template <Terms kKernel, class T>
-void solve_rod_again(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, std::vector<T>& keep,
-                     const ImplicitScratchView<T>& sc, T* (&kp)[kKeepValues], int hold) {
-  const RodInfo& rod = b.rods[std::size_t(ri)];
-  restore_pre_solve(b, ri, cv);
-  if (hold >= 0) shift_hold(b, hold, T(-1));
-  keep_pointers(keep, rod.elements + 1, kp);
-  viscous_implicit_rod<kKernel>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), b.model_view(),
-                                b.state_view(), sc, kp);
-  if (hold >= 0) shift_hold(b, hold, T(1));
-}
-
-// Rod ri with prescribed velocities (the scalar kernel, as the solve takes
-// it: its delta form), solved again from u⁻ with its factors kept, then
-// its contacts through them.
-template <Terms kKernel, class T>
-void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactView<T>& cv, ContactSolveBuffer<T>& buf,
-                                    const ImplicitScratchView<T>& sc, const Segment& r) {
-  const RodInfo& rod = b.rods[std::size_t(ri)];
-  T* kp[kKeepValues];
-  solve_rod_again<kKernel>(b, ri, h, cv, buf.keep, sc, kp, reference_hold(b, r, ri));
-  RodContacts<T>& one = buf.lanes_for(1)[0];
-  one.rod = find_solve_contacts(b, ri, h, cv, one) ? ri : -1;
-  one.start = 0;  // (the scalar kernel's factors: the rod's cells from 0, no ghost)
-  if (one.rod >= 0)
-    group_contacts_through_factors<1>(b, h, cv, buf, lane_pointers<T, 1>(buf).data(), kp, sc.G, rod.elements + 1);
-}
-
 // The collider contacts fused into the implicit solve (its Hook,
 // host/core/step/implicit_solve.h solve_segment): each lane group is solved
 // with its factors kept, then each of its rods whose contacts the solve
@@ -756,9 +730,9 @@ void solve_prescribed_with_contacts(RodBatch<T>& b, int ri, T h, const ContactVi
 // motion back (if the solve ran it relative to one), finds its contacts
 // and, if one acts, takes them through its lane's factors, at once: no
 // second solve, no second search. Those rods are marked in StepWorkspace::
-// contact_fused; the stage after the solve takes the others (prescribed
-// velocities, a float batch's stiff rod solved in double, a long rod's
-// partitioned solve, the scalar kernel) as before. A rod's result is the
+// contact_fused; the stage after the solve takes the others (a float
+// batch's stiff rod solved in double, a long rod's partitioned solve, the
+// scalar kernel) as before. A rod's result is the
 // stage's to the bit: the same kept solve (solve_lanes_kept), the same
 // shifts, the same contacts, in the same order.
 // With a profile, the contacts' time moves from the implicit_solve stage to
@@ -771,7 +745,7 @@ struct ContactsAfterGroup {
   const Segment& r;
   Profile* profile;
 
-  template <int Wg, class Tc>
+  template <int Wg, bool kLift = false, class Tc>
   void group(const int* first, const int* cells, const T* stiff_h, const int* rods, int count,
              const ImplicitScratchView<Tc>& sc, int thread) {
     ContactSolveBuffer<T>& buf = b.workspace->contact_solve[std::size_t(thread)];
@@ -780,7 +754,7 @@ struct ContactsAfterGroup {
     n += 1;  // the root ghost cell
     Tc* kp[kKeepValues];
     keep_pointers(buf.keep, Wg * n, kp);
-    solve_lanes_kept<kKernel, Wg>(first, cells, h, stiff_h, b.model_view(), b.state_view(), sc, kp);
+    solve_lanes_kept<kKernel, Wg, kLift>(first, cells, h, stiff_h, b.model_view(), b.state_view(), sc, kp);
     std::chrono::steady_clock::time_point t0;
     if (profile) t0 = std::chrono::steady_clock::now();
     char* fused = b.workspace->contact_fused.data();
@@ -814,16 +788,19 @@ struct ContactsAfterGroup {
 
 
 // How the contact solve takes rod ri (a job kind): 1 in a lane group, 2 in
-// a lane group in double (a float batch's stiff rod), 3 prescribed; 4, 5:
-// as 1, 2 but alone in one lane (a rod too long for a group in the thread's
-// buffer, as the solve's partitioned ones).
+// a lane group in double (a float batch's stiff rod); 4, 5: as 1, 2 but
+// alone in one lane (a rod too long for a group in the thread's buffer, as
+// the solve's partitioned ones); plus kLiftedJob for a rod with prescribed
+// velocities (in jobs of their own, solved with SolveGroup::lift's kernel).
+inline constexpr char kLiftedJob = 8;
+
 template <class T>
 char solve_job_kind(const RodBatch<T>& b, int ri, const Exec& ex) {
   constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
   const RodInfo& rod = b.rods[std::size_t(ri)];
   const bool wide = sizeof(T) < sizeof(double) && rod.stiff_implicit && ex.stiff_solve_in_double;
   const bool fits = (wide ? kWide : W) * (rod.elements + 2) <= b.workspace->visc_cells;
-  return char(rod.prescribed ? 3 : wide ? (fits ? 2 : 5) : (fits ? 1 : 4));
+  return char((wide ? (fits ? 2 : 5) : (fits ? 1 : 4)) | (rod.prescribed ? kLiftedJob : 0));
 }
 
 // The jobs of the rods of r by their kind (own.kind, 0: none): {kind, first
@@ -833,8 +810,8 @@ void make_solve_jobs(ContactSolveBuffer<T>& own, const Segment& r) {
   constexpr int W = kImplicitLanes<T>, kWide = kImplicitLanes<double>;
   own.rods.clear();
   own.jobs.clear();
-  for (int kind = 1; kind <= 5; ++kind) {
-    const int width = kind == 1 ? W : kind == 2 ? kWide : 1;
+  for (const int kind : {1, 2, 4, 5, 1 | kLiftedJob, 2 | kLiftedJob, 4 | kLiftedJob, 5 | kLiftedJob}) {
+    const int base = kind & ~kLiftedJob, width = base == 1 ? W : base == 2 ? kWide : 1;
     for (int ri = r.rod_begin; ri < r.rod_end; ++ri) {
       if (own.kind[std::size_t(ri - r.rod_begin)] != kind) continue;
       if (own.jobs.empty() || own.jobs.back()[0] != kind || own.jobs.back()[2] == width)
@@ -890,15 +867,14 @@ void kept_factor_pointers(Tc* store, std::size_t per, Tc* (&kp)[kKeepValues], Tc
 
 // One job (rods[0 … count), W lanes, solved in Tc) of the rod–rod contact
 // solve in mode gm: begin solves the rods again from u⁻ (their reference
-// holds in StepWorkspace::contact_hold; as
-// solve_group_with_contacts, or the scalar kernel for a rod with
-// prescribed velocities), keeps the factors in `store` (n: the group's
-// cells) and joins the contacts that act; join, check and finish take them
-// from there (group_contacts_through_factors, GroupMode).
+// holds in StepWorkspace::contact_hold; as solve_group_with_contacts;
+// lift: rods with prescribed velocities), keeps the factors in `store` (n:
+// the group's cells) and joins the contacts that act; join, check and
+// finish take them from there (group_contacts_through_factors, GroupMode).
 template <Terms kKernel, int W, class Tc, class T>
 void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const ContactView<T>& cv,
                       ContactSolveBuffer<T>& buf, std::vector<Tc>& keep, const ImplicitScratchView<Tc>& sc,
-                      std::vector<Tc>& store, int& n, GroupMode gm, bool prescribed) {
+                      std::vector<Tc>& store, int& n, GroupMode gm, bool lift) {
   std::vector<RodContacts<T>>& rcs = b.workspace->rod_contacts;
   std::array<RodContacts<T>*, W> lanes;
   RodContacts<T>* pad = buf.lanes_for(1);  // a lane short of a rod
@@ -906,17 +882,10 @@ void rod_contacts_job(RodBatch<T>& b, const int* rods, int count, T h, const Con
   for (int j = 0; j < W; ++j) lanes[std::size_t(j)] = j < count ? &rcs[std::size_t(rods[j])] : pad;
   if (gm == GroupMode::begin) {
     Tc* kp[kKeepValues];
-    if (prescribed) {  // one rod, the scalar kernel's factors: its cells from 0, no ghost
-      if constexpr (std::is_same_v<Tc, T>)
-        solve_rod_again<kKernel>(b, rods[0], h, cv, keep, sc, kp, b.workspace->contact_hold[std::size_t(rods[0])]);
-      n = b.rods[std::size_t(rods[0])].elements + 1;
-      lanes[0]->start = 0;
-    } else {
-      int cells[W];
-      n = solve_group_again<kKernel, W>(b, rods, count, h, cv, keep, sc, kp, cells,
-                                        [&](int ri) { return b.workspace->contact_hold[std::size_t(ri)]; });
-      for (int j = 0; j < count; ++j) lanes[std::size_t(j)]->start = n - cells[j];
-    }
+    int cells[W];
+    n = solve_group_again<kKernel, W>(b, rods, count, h, cv, keep, sc, kp, cells, lift,
+                                      [&](int ri) { return b.workspace->contact_hold[std::size_t(ri)]; });
+    for (int j = 0; j < count; ++j) lanes[std::size_t(j)]->start = n - cells[j];
     const std::size_t per = std::size_t(W) * std::size_t(n);
     store.resize(std::size_t(kKeptFactorValues) * per);
     for (int a = 0; a < kKeepValues; ++a) std::copy(kp[a], kp[a] + per, store.data() + std::size_t(a) * per);
@@ -998,19 +967,21 @@ void rod_contacts_in_solve(RodBatch<T>& b, T h, const ContactView<T>& cv, const 
     auto& kf = ws.kept_factors[std::size_t(i)];
     ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
     const int* jr = own.rods.data() + jb[1];
-    if (jb[0] == 1) {
+    const int kind = jb[0] & ~kLiftedJob;
+    const bool lift = (jb[0] & kLiftedJob) != 0;
+    if (kind == 1) {
       rod_contacts_job<kKernel, W>(b, jr, jb[2], h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), kf.f, kf.n,
-                                   gm, false);
-    } else if (jb[0] == 3 || jb[0] == 4) {
+                                   gm, lift);
+    } else if (kind == 4) {
       rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), kf.f, kf.n, gm,
-                                   jb[0] == 3);
+                                   lift);
     } else if constexpr (sizeof(T) < sizeof(double)) {
-      if (jb[0] == 2)
+      if (kind == 2)
         rod_contacts_job<kKernel, kWide>(b, jr, jb[2], h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t),
-                                         kf.wide, kf.n, gm, false);
+                                         kf.wide, kf.n, gm, lift);
       else
         rod_contacts_job<kKernel, 1>(b, jr, 1, h, cv, buf, buf.keep_wide, b.wide_implicit_scratch_view(t), kf.wide,
-                                     kf.n, gm, false);
+                                     kf.n, gm, lift);
     }
   };
   // each pair's two sides: where the other side is, and the contact's mass
@@ -1290,8 +1261,8 @@ void viscous_update_with_contacts(RodBatch<T>& b, T h, const ColliderFrame<T>* f
 // The stage on the rods of segment r that the solve steps (kSolve: the
 // solve's Terms), after the solve: which rods have a collider or self
 // contact that acts (a pass over the rods), then those rods again in lane groups of the
-// solve's width (in double for a float batch's stiff rods, one by one with
-// prescribed velocities), each group's rods in their order: the result does
+// solve's width (in double for a float batch's stiff rods; rods with
+// prescribed velocities in groups of their own), each group's rods in their order: the result does
 // not depend on the thread count.
 // reads: model, state, contact data and lists, colliders  writes: state.node_v, elem_w
 // of the rods with an acting contact, contact.work
@@ -1345,20 +1316,21 @@ void contact_solve_stage(RodBatch<T>& b, T h, const ColliderFrame<T>* frames, co
   auto job = [&](const std::array<int, 3>& jb, int t) {
     ContactSolveBuffer<T>& buf = bufs[std::size_t(t)];
     const int* rods = own.rods.data() + jb[1];
-    if (jb[0] == 1) {
+    const int kind = jb[0] & ~detail::kLiftedJob;
+    const bool lift = (jb[0] & detail::kLiftedJob) != 0;
+    if (kind == 1) {
       detail::solve_group_with_contacts<kKernel, W>(b, rods, jb[2], h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0),
-                                                    r);
-    } else if (jb[0] == 2) {
+                                                    r, lift);
+    } else if (kind == 2) {
       if constexpr (sizeof(T) < sizeof(double))
         detail::solve_group_with_contacts<kKernel, kWide>(b, rods, jb[2], h, cv, buf, buf.keep_wide,
-                                                          b.wide_implicit_scratch_view(t), r);
-    } else if (jb[0] == 3) {
-      detail::solve_prescribed_with_contacts<kKernel>(b, rods[0], h, cv, buf, b.implicit_scratch_view(t, 0), r);
-    } else if (jb[0] == 4) {
-      detail::solve_group_with_contacts<kKernel, 1>(b, rods, 1, h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), r);
+                                                          b.wide_implicit_scratch_view(t), r, lift);
+    } else if (kind == 4) {
+      detail::solve_group_with_contacts<kKernel, 1>(b, rods, 1, h, cv, buf, buf.keep, b.implicit_scratch_view(t, 0), r,
+                                                    lift);
     } else if constexpr (sizeof(T) < sizeof(double)) {
       detail::solve_group_with_contacts<kKernel, 1>(b, rods, 1, h, cv, buf, buf.keep_wide,
-                                                    b.wide_implicit_scratch_view(t), r);
+                                                    b.wide_implicit_scratch_view(t), r, lift);
     }
   };
   const int jobs = int(own.jobs.size());

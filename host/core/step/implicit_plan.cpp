@@ -24,15 +24,19 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
   for (int i = seg.rod_begin; i < seg.rod_end; ++i)
     if (needs_implicit_solve(rods[i], kelvin_voigt)) plan.rods.push_back(i);
   const auto begin = plan.rods.begin() + first_rod;
-  // rods with prescribed velocities (RodInfo::prescribed) go last, one per
-  // group: the scalar kernel's delta form keeps them
-  const auto alone = std::stable_partition(begin, plan.rods.end(), [&](int x) { return !rods[x].prescribed; });
-  if (lanes > 1)
-    std::sort(begin, alone, [&](int x, int y) {
-      const int ex = rods[x].elements, ey = rods[y].elements;
-      return ex != ey ? ex > ey : x < y;
-    });
-  const int n = int(alone - plan.rods.begin()), total = int(plan.rods.size());
+  // rods with prescribed velocities (RodInfo::prescribed) go last, in groups
+  // of their own: their kernel moves the fixed unknowns' values to the
+  // right-hand side (kLift), which the others need not pay for
+  const auto lifted = std::stable_partition(begin, plan.rods.end(), [&](int x) { return !rods[x].prescribed; });
+  auto by_length = [&](int x, int y) {
+    const int ex = rods[x].elements, ey = rods[y].elements;
+    return ex != ey ? ex > ey : x < y;
+  };
+  if (lanes > 1) {
+    std::sort(begin, lifted, by_length);
+    std::sort(lifted, plan.rods.end(), by_length);
+  }
+  const int n = int(lifted - plan.rods.begin()), total = int(plan.rods.size());
   const int half_lanes = lanes >= 4 ? lanes / 2 : 1;
   for (int a = first_rod; a < n;) {
     const int cells = rods[plan.rods[a]].elements + 1;
@@ -49,7 +53,16 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
     plan.groups.push_back(g);
     a += count;
   }
-  for (int a = n; a < total; ++a) plan.groups.push_back({a, 1, false});
+  // the prescribed ones: full groups, or one rod in one lane (never
+  // partitioned)
+  for (int a = n; a < total;) {
+    const int cells = rods[plan.rods[a]].elements + 1;
+    const int count = lanes * (cells + 1) <= buffer_cells ? std::min(lanes, total - a) : 1;
+    SolveGroup g{a, count, false};
+    g.lift = true;
+    plan.groups.push_back(g);
+    a += count;
+  }
   return {first_group, int(plan.groups.size())};
 }
 

@@ -18,6 +18,11 @@
 // its group: the kernel's idle and ghost cells add exact zeros), never on
 // the thread count. A rod alone in its group that has at least
 // kPartitionMinCells cells is cut into partitions instead (SolveGroup::parts).
+// Rods with prescribed velocities besides their reference hold
+// (RodInfo::prescribed: a driven tip or interior node with another hold)
+// come last, in full groups of their own or alone in one lane, never
+// partitioned; their kernel keeps the fixed unknowns' values
+// (SolveGroup::lift, kernels/viscous_implicit_lanes.h kLift).
 #pragma once
 
 #include <array>

@@ -38,9 +38,10 @@ namespace detail {
 // rigid_shift). sign −1 keeps the hold's (v, ω_g) in `saved` and subtracts
 // its rigid field; +1 adds it back. Ω = Q_gᵀ ω_g and the hold's x do not
 // change in the solve. Other held unknowns keep their (shifted) prescribed
-// velocities: the scalar kernel's delta form solves their rods
-// (RodInfo::prescribed). shift_hold: hold i alone; shift_reference_holds:
-// the reference holds of the rods segment r solves.
+// velocities: their rods (RodInfo::prescribed) are solved with the fixed
+// unknowns' values lifted to the right-hand side (SolveGroup::lift).
+// shift_hold: hold i alone; shift_reference_holds: the reference holds of
+// the rods segment r solves.
 template <class T>
 void shift_hold(RodBatch<T>& b, int i, T sign) {
   const StateView<T> s = b.state_view();
@@ -217,10 +218,9 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
     const int* rods = plan->rods.data() + grp.first;
     const ImplicitScratchView<T> sc = b.implicit_scratch_view(t, 0);
     // the scalar kernel: every rod at kLanes = 1 (the tests' reference); a
-    // rod with prescribed velocities (its delta form, see above); a float
-    // rod alone that is not solved in double (the delta form keeps float's
-    // precision in the slow modes, docs/model.md)
-    if (W == 1 || (grp.count == 1 && (b.rods[rods[0]].prescribed || (sizeof(T) < sizeof(double) && !wide)))) {
+    // float rod alone that is not solved in double (the delta form keeps
+    // float's precision in the slow modes, docs/model.md)
+    if (W == 1 || (grp.count == 1 && sizeof(T) < sizeof(double) && !wide)) {
       const RodInfo& rod = b.rods[rods[0]];
       viscous_implicit_rod<kT>(rod.offset + 1, rod.elements + 1, h, rod.stiff_implicit ? h : T(0), m, s, sc);
       return;
@@ -237,18 +237,29 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
       if (wide) {
         const ImplicitScratchView<double> wsc = b.wide_implicit_scratch_view(t);
         if (grp.count == 1) {
-          viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, wsc);
+          if (grp.lift)
+            viscous_implicit_lanes<kT, 1, false, true>(first, cells, h, stiff_h, m, s, wsc);
+          else
+            viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, wsc);
           return;
         }
         for (int j = 0; j < grp.count; j += kWide)
-          viscous_implicit_lanes<kT, kWide>(first + j, cells + j, h, stiff_h + j, m, s, wsc);
+          if (grp.lift)
+            viscous_implicit_lanes<kT, kWide, false, true>(first + j, cells + j, h, stiff_h + j, m, s, wsc);
+          else
+            viscous_implicit_lanes<kT, kWide>(first + j, cells + j, h, stiff_h + j, m, s, wsc);
         return;
       }
     // a double rod alone in one lane (about 3× faster than the scalar
     // kernel: the lane kernel's symmetric, structured elimination), a half or
     // a full group; with a hook, it solves them
+    // (rods with prescribed velocities: kLift, full groups or one lane)
     if constexpr (!std::is_same_v<Hook, NoSolveHook>) {
-      if (grp.count == 1)
+      if (grp.lift && grp.count == 1)
+        hook->template group<1, true>(first, cells, stiff_h, rods, 1, sc, t);
+      else if (grp.lift)
+        hook->template group<W, true>(first, cells, stiff_h, rods, grp.count, sc, t);
+      else if (grp.count == 1)
         hook->template group<1>(first, cells, stiff_h, rods, 1, sc, t);
       else if (W2 > 1 && grp.half)
         hook->template group<W2>(first, cells, stiff_h, rods, grp.count, sc, t);
@@ -256,7 +267,11 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
         hook->template group<W>(first, cells, stiff_h, rods, grp.count, sc, t);
       return;
     }
-    if (grp.count == 1)
+    if (grp.lift && grp.count == 1)
+      viscous_implicit_lanes<kT, 1, false, true>(first, cells, h, stiff_h, m, s, sc);
+    else if (grp.lift)
+      viscous_implicit_lanes<kT, W, false, true>(first, cells, h, stiff_h, m, s, sc);
+    else if (grp.count == 1)
       viscous_implicit_lanes<kT, 1>(first, cells, h, stiff_h, m, s, sc);
     else if (W2 > 1 && grp.half)
       viscous_implicit_lanes<kT, W2>(first, cells, h, stiff_h, m, s, sc);

@@ -31,6 +31,7 @@ struct SolveGroup {
   bool half = false;
   int parts = 0;
   std::size_t offset = 0;
+  bool lift = false;  // rods with prescribed velocities (the lane kernel's kLift)
 };
 
 // One rod's contacts in the contact solve (host/core/step/contact_solve.h),
