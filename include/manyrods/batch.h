@@ -79,8 +79,8 @@ struct RodSpec {
   // the stable step is the bending one (≈ 1e-4 s and more for hair instead of
   // 4e-8 s). First order in the stiff components, which it damps; see
   // kernels/viscous_implicit.h and README "Stiff rods". Position Verlet only.
-  // A stiff rod's holds are all static, or it has exactly one, driven, at
-  // the root or the tip (its implicit solve runs relative to that motion).
+  // A stiff rod takes any holds; holds that stretch it give a stretch that
+  // depends on the step (docs/model.md "Held nodes in the implicit solve").
   bool stiff_implicit = false;
   std::optional<Mat3> root_frame;     // clamp frame at s = 0 (default: frames[0])
   // A driven root (include/manyrods/drive.h): the held root (node 0 and, if
