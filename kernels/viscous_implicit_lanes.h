@@ -223,6 +223,22 @@ MANYRODS_HD inline void lift_rows(int l, const T (&minv)[4], const T (&p)[6], co
     cur.y[i][l] = minv[i < 3 ? 0 : i - 2] == T(0) ? p[i] : cur.y[i][l] - r[i];
 }
 
+// kLift: r = U_{c−1}ᵀ p_{c−1} (prev.lift) + the carried block (the part of
+// A_c from the cell before) times p.
+template <int W, class T>
+MANYRODS_HD inline void carried_lift(int l, const Cell<T, W>& prev, const T (&p)[6], T (&r)[6]) {
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 6; ++i) r[i] = prev.lift[i][l];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 3; ++i)
+    MANYRODS_UNROLL_ALL
+    for (int j = 0; j < 3; ++j) {
+      const int t = i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i;
+      r[i] += prev.carry[t][l] * p[j];
+      r[3 + i] += prev.carry[6 + t][l] * p[3 + j];
+    }
+}
+
 // Assembles cell c of lane l into `cur` from the packed inputs P (cells c
 // and c+1) and the block `prev` carried over from cell c−1: A_c (lower), U_c,
 // y_c, the inverse masses, and the next cell's carry. kLast: the last cell
@@ -253,19 +269,10 @@ MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P,
     for (int i = 0; i < 3; ++i)
       MANYRODS_UNROLL_ALL
       for (int j = 0; j < 3; ++j) cur.A[lt(3 + i, j)][l] = T(0);
-    if constexpr (kLift) {  // y −= (A − M) p + U_{c−1}ᵀ p_{c−1}
+    if constexpr (kLift) {  // y −= (A − M) p + U_{c−1}ᵀ p_{c−1} (A − M: the carried block)
       T p[6], r[6];
       fixed_values(u, minv, p);
-      MANYRODS_UNROLL_ALL
-      for (int i = 0; i < 6; ++i) r[i] = prev.lift[i][l];
-      MANYRODS_UNROLL_ALL
-      for (int i = 0; i < 3; ++i)
-        MANYRODS_UNROLL_ALL
-        for (int j = 0; j < 3; ++j) {
-          const int t = i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i;
-          r[i] += prev.carry[t][l] * p[j];
-          r[3 + i] += prev.carry[6 + t][l] * p[3 + j];
-        }
+      carried_lift(l, prev, p, r);
       lift_rows(l, minv, p, r, cur);
     }
   } else {
@@ -348,16 +355,14 @@ MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P,
       T p[6], pn[6], r[6];
       fixed_values(u, minv, p);
       fixed_values(un, nminv, pn);
-      MANYRODS_UNROLL_ALL
-      for (int i = 0; i < 6; ++i) r[i] = prev.lift[i][l];
+      carried_lift(l, prev, p, r);
       MANYRODS_UNROLL_ALL
       for (int i = 0; i < 3; ++i)
         MANYRODS_UNROLL_ALL
         for (int j = 0; j < 3; ++j) {
           const int t = i >= j ? i * (i + 1) / 2 + j : j * (j + 1) / 2 + i;
-          const T avv = prev.carry[t][l] + N[3 * i + j], aww = prev.carry[6 + t][l] + Mw[t] + s6[t];
-          r[i] += avv * p[j] + X[3 * j + i] * p[3 + j] - N[3 * i + j] * pn[j];
-          r[3 + i] += X[3 * i + j] * p[j] + aww * p[3 + j] - X[3 * i + j] * pn[j] - sRt[3 * i + j] * pn[3 + j];
+          r[i] += N[3 * i + j] * (p[j] - pn[j]) + X[3 * j + i] * p[3 + j];
+          r[3 + i] += X[3 * i + j] * (p[j] - pn[j]) + (Mw[t] + s6[t]) * p[3 + j] - sRt[3 * i + j] * pn[3 + j];
         }
       lift_rows(l, minv, p, r, cur);
       MANYRODS_UNROLL_ALL
