@@ -27,8 +27,10 @@
 // tridiagonal with 6×6 blocks: element k couples cells k and k+1, Voronoi k
 // couples cells k−1 and k. The system is solved by block Thomas elimination
 // with 6×6 Cholesky factors, one rod per call: data-parallel over rods.
-// Fixed unknowns (clamped node, ghost element) keep u = 0; a driven root's
-// prescribed velocities enter through rigid_shift (below).
+// Fixed unknowns (clamped node, ghost element) keep their values (0, or a
+// driven hold's prescribed velocity: the direct form lifts them to the
+// right-hand side, below); a driven root's prescribed velocities enter
+// through rigid_shift (below).
 //
 // Stiff rods (RodSpec::stiff_implicit, "frame-rate hair"): the same solve
 // also integrates the elastic STIFFNESS linearly implicitly, so that no
@@ -195,7 +197,8 @@ MANYRODS_HD inline void voronoi_maps(int k, T stiff_h, const ModelView<T>& m, co
 
 // Driven roots (include/manyrods/drive.h): node 0's velocity v₀ and the
 // clamp frame's ω_g = Q_g Ω (the root ghost element, slot first − 1) are
-// prescribed, non-zero unknowns, which the solve above keeps at zero. They
+// prescribed, non-zero unknowns, outside the cells the solve above runs
+// over (the root joint takes the clamp frame at rest). They
 // extend to a rigid velocity field of the whole rod,
 //   ū: v̄_j = v₀ + Ω × (x_j − x₀),  ω̄_e = Q_e Ω  (material components),
 // and a rigid motion strains nothing: D ū = 0 for the maps above, exactly

@@ -3,7 +3,9 @@
 // large-deflection cantilever (1b), solved by Newton (host/core/analysis/statics.h).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <random>
+#include <vector>
 
 #include <cmath>
 #include <cstdio>
@@ -234,4 +236,160 @@ TEST(Statics, BandedSolveIsTheDenseLuSolve) {
   std::printf("banded against dense LU: %.3e relative (condition number %.3e)\n", err, kappa);
   EXPECT_LE(err, 10 * kappa * std::numeric_limits<double>::epsilon());
   EXPECT_LE((J.times(x) - rhs).norm(), 10 * kappa * std::numeric_limits<double>::epsilon() * rhs.norm());
+}
+
+namespace {
+
+// A straight round rod along e1 from `start`, length 1 m, n elements.
+RodSpec support_rod(Vec3 start, int n) {
+  RodSpec s = RodSpec::straight(start, {1, 0, 0}, {0, 0, 1}, 1.0, n);
+  s.name = "beam";
+  s.section = Section::circle(0.01);
+  s.material = {1000, 1e9, 0.3};
+  s.clamped_root = false;
+  return s;
+}
+
+Vec3 cross3(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+}  // namespace
+
+TEST(Statics, HoldReactionsBalanceTheLoads) {
+  // What the holds exert on their rods at static equilibrium (hold_reactions):
+  // a cantilever with a tip force, a span clamped at both ends, a propped
+  // cantilever (clamped root, pinned tip), a free rod clamped at its middle
+  // node, a clamped rod with a pinned interior node, under gravity.
+  // Independent references:
+  //  * the loads: the discrete internal forces and couples sum to zero force
+  //    and zero moment (they are differences of element and joint
+  //    resultants, and the element couple carries the moment of the shear
+  //    force), so the reactions balance each rod's weight and tip force,
+  //    force and moment about the origin, up to what the equilibrium leaves
+  //    on the free unknowns (the residual r: Σ|r| over the free nodes, and
+  //    Σ|x||r| + Σ|couple| over the free elements for the moment) and the
+  //    round-off of those sums (1e-12 of the weight allowed);
+  //  * beam statics: the cantilever's root carries W + P and the moment
+  //    W L/2 + P L about e2, to within the load times the tip deflection
+  //    (the arms shorten by less than the deflection); the clamped span
+  //    splits the weight in halves (symmetry: to the residual); the propped
+  //    cantilever's pin carries 3W/8 (Euler–Bernoulli, small deflections:
+  //    the batch is under a tenth of gravity; at full gravity the pin
+  //    carries 1.8e-3 W more, a large-deflection effect that does not fall
+  //    with dx), to the discrete beam's O(dx²) error (measured 5.2e-4,
+  //    1.6e-4, 7.6e-5 of W at n = 20, 40, 80) and its shear flexibility
+  //    (r²E/(κGL²) ≈ 3e-4), allowed as 2 (dx/L)² + 3e-4 of W; pinned holds
+  //    exert no moment (exactly); the rod clamped at its middle carries its
+  //    weight with no moment (symmetry).
+  const int n = 20;
+  std::vector<RodSpec> rods;
+  RodSpec a = support_rod({0, 0, 0}, n);  // cantilever
+  a.clamped_root = true;
+  rods.push_back(a);
+  RodSpec c = support_rod({0, 1, 0}, n);  // clamped span
+  c.clamped_root = c.clamped_tip = true;
+  rods.push_back(c);
+  RodSpec p = support_rod({0, 2, 0}, n);  // propped cantilever: clamped root, pinned tip
+  p.clamped_root = true;
+  p.pinned_tip = true;
+  rods.push_back(p);
+  RodSpec m = support_rod({0, 3, 0}, n);  // clamped at the middle
+  m.holds.push_back({n / 2, HoldKind::clamped, nullptr});
+  rods.push_back(m);
+  RodSpec q = support_rod({0, 4, 0}, n);  // clamped root, pinned node 12
+  q.clamped_root = true;
+  q.holds.push_back({12, HoldKind::pinned, nullptr});
+  rods.push_back(q);
+  const double g = 0.981;  // a tenth of gravity: small deflections (see above)
+  RodBatch<double> b = build_batch<double>(rods, {0, 0, -g});
+  const Vec3 P = {0.0, 0.02, -0.05};  // N, on the cantilever's tip
+  b.set_node_force(0, n, P);
+  StaticOptions opt;
+  opt.load_steps = 4;
+  opt.tolerance = 1e-12;
+  const StaticResult res = solve_static<kNoKelvinVoigt>(b, opt);
+  std::printf("static solve: %d Newton iterations, last update %.2e\n", res.iterations, res.last_update);
+  ASSERT_TRUE(res.converged);
+  const std::vector<HoldReaction> h = hold_reactions<kNoKelvinVoigt>(b);
+  ASSERT_EQ(h.size(), 8u);
+  // the residual: generalized forces (velocities are zero after the solve)
+  std::array<std::vector<double>, 3> rf3, rc3;
+  for (int i = 0; i < 3; ++i) rf3[i].assign(std::size_t(b.slots()), 0.0), rc3[i].assign(std::size_t(b.slots()), 0.0);
+  double* const rfp[3] = {rf3[0].data(), rf3[1].data(), rf3[2].data()};
+  double* const rcp[3] = {rc3[0].data(), rc3[1].data(), rc3[2].data()};
+  generalized_forces<kNoKelvinVoigt>(b, rfp, rcp);
+  const double W = b.rods[0].elastic.density * b.rods[0].section.area * 1.0 * g;
+  double residual[5];  // each rod's Σ|r| over its free nodes, plus round-off
+  for (int r = 0; r < 5; ++r) {
+    Vec3 force{}, moment{};  // of the loads and the reactions, about the origin
+    double left_f = 0, left_m = 0;  // what the equilibrium leaves on the free unknowns
+    for (int j = 0; j <= n; ++j) {
+      const Vec3 x = b.position(r, j);
+      const int k = b.node_index(r, j);
+      if (b.model.node_inv_mass[k] != 0) {
+        const double rf = std::hypot(rf3[0][k], rf3[1][k], rf3[2][k]);
+        left_f += rf;
+        left_m += rf * std::hypot(x[0], x[1], x[2]);
+      }
+      if (j < n && b.model.elem_inv_inertia[0][k] != 0)
+        left_m += std::hypot(rc3[0][k], rc3[1][k], rc3[2][k]);
+      Vec3 w = {0, 0, -g * b.model.node_mass[b.node_index(r, j)]};
+      if (r == 0 && j == n) w = {w[0] + P[0], w[1] + P[1], w[2] + P[2]};
+      const Vec3 mw = cross3(x, w);
+      for (int i = 0; i < 3; ++i) force[i] += w[i], moment[i] += mw[i];
+    }
+    int holds = 0;
+    for (const HoldReaction& hr : h) {
+      if (hr.rod != r) continue;
+      ++holds;
+      const Vec3 mr = cross3(b.position(r, hr.node), hr.force);
+      for (int i = 0; i < 3; ++i) force[i] += hr.force[i], moment[i] += mr[i] + hr.moment[i];
+      if (!hr.clamped) EXPECT_EQ(hr.moment[0] * hr.moment[0] + hr.moment[1] * hr.moment[1] + hr.moment[2] * hr.moment[2], 0.0);
+    }
+    EXPECT_GT(holds, 0) << "rod " << r;
+    std::printf("rod %d: %d holds; force balance %.2e N (residual %.2e), moment balance %.2e N m (residual %.2e)\n",
+                r, holds, std::hypot(force[0], force[1], force[2]), left_f, std::hypot(moment[0], moment[1], moment[2]),
+                left_m);
+    residual[r] = left_f + 1e-12 * W;
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(force[i], 0.0, left_f + 1e-12 * W) << "rod " << r << " force " << i;
+      EXPECT_NEAR(moment[i], 0.0, left_m + 1e-12 * W * 5) << "rod " << r << " moment " << i;  // arms ≤ 5 m
+    }
+  }
+  // the cantilever: W + P at the root, and the moment that holds them
+  const HoldReaction& root = h[0];
+  ASSERT_EQ(root.rod, 0);
+  ASSERT_TRUE(root.clamped);
+  const Vec3 tip = b.position(0, n);
+  const double deflection = std::hypot(tip[0] - 1.0, tip[1], tip[2]), load = W + std::hypot(P[0], P[1], P[2]);
+  std::printf("cantilever: root force (%.6e, %.6e, %.6e) N, moment (%.6e, %.6e, %.6e) N m, tip deflection %.2e m\n",
+              root.force[0], root.force[1], root.force[2], root.moment[0], root.moment[1], root.moment[2], deflection);
+  EXPECT_NEAR(root.force[1], -P[1], residual[0]);
+  EXPECT_NEAR(root.force[2], W - P[2], residual[0]);
+  EXPECT_NEAR(root.moment[1], -(W / 2 - P[2]) * 1.0, load * deflection);  // −(moment of the loads) about the root
+  EXPECT_NEAR(root.moment[2], -P[1] * 1.0, load * deflection);
+  // the symmetric spans: half the weight at each end; the middle clamp: all of it, no moment
+  for (int r : {1, 2}) {
+    std::vector<const HoldReaction*> ends;
+    for (const HoldReaction& hr : h)
+      if (hr.rod == r) ends.push_back(&hr);
+    ASSERT_EQ(ends.size(), 2u);
+    std::printf("rod %d: end forces %.6e and %.6e N (weight %.6e N)\n", r, ends[0]->force[2], ends[1]->force[2], W);
+    if (r == 1) {
+      EXPECT_NEAR(ends[0]->force[2], W / 2, residual[1]) << "clamped span";
+      EXPECT_NEAR(ends[1]->force[2], W / 2, residual[1]) << "clamped span";
+      EXPECT_NEAR(ends[0]->force[0], -ends[1]->force[0], residual[1]) << "clamped span";
+      EXPECT_NEAR(ends[0]->moment[1], -ends[1]->moment[1], residual[1]) << "clamped span (arms ≤ 1 m)";
+    } else {
+      const double dx = 1.0 / n;
+      EXPECT_NEAR(ends[1]->force[2], 3 * W / 8, (2 * dx * dx + 3e-4) * W) << "propped cantilever's pin";
+    }
+  }
+  for (const HoldReaction& hr : h)
+    if (hr.rod == 3) {
+      EXPECT_TRUE(hr.clamped);
+      EXPECT_NEAR(hr.force[2], W, residual[3]);
+      EXPECT_NEAR(hr.moment[1], 0.0, residual[3]);  // (arms ≤ 1 m)
+    }
 }

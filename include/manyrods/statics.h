@@ -4,6 +4,8 @@
 // precision batches only. The method is described in host/core/analysis/statics.h.
 #pragma once
 
+#include <vector>
+
 #include "manyrods/batch.h"
 #include "manyrods/step.h"
 #include "manyrods/terms.h"
@@ -34,5 +36,31 @@ extern template StaticResult solve_static<kAllTerms>(RodBatch<double>&, const St
 extern template StaticResult solve_static<kNoKelvinVoigt>(RodBatch<double>&, const StaticOptions&);
 extern template StaticResult solve_static<kNoGravity>(RodBatch<double>&, const StaticOptions&);
 extern template StaticResult solve_static<kNoKelvinVoigtNoGravity>(RodBatch<double>&, const StaticOptions&);
+
+// What one hold exerts on its rod, in the lab frame: the force on the held
+// node (N) and, for a clamp, the couple on the frames it holds (N·m: a
+// clamped end's clamp frame, a clamped interior node's two elements; an
+// element held by two clamps counts for the first).
+struct HoldReaction {
+  int rod = 0;
+  int node = 0;  // 0 … n
+  bool clamped = false;
+  Vec3 force{};
+  Vec3 moment{};
+};
+
+// The reactions of every held node of the batch (rod by rod, root to tip),
+// from the balance of the held unknowns at the batch's positions and frames,
+// at rest (velocities taken as zero): R = −(internal + external force) on
+// the node, M = −Σ Qᵀ(internal + external couple) over the held frames. At
+// a static equilibrium (solve_static) these are the support reactions
+// (connector loads); they balance the loads on the rod, force and moment
+// (docs/model.md "Static equilibrium"). kT: the elastic terms, gravity and
+// loads to count (the Kelvin–Voigt term is ignored).
+template <Terms kT = kAllTerms>
+std::vector<HoldReaction> hold_reactions(const RodBatch<double>& b);
+
+extern template std::vector<HoldReaction> hold_reactions<kAllTerms>(const RodBatch<double>&);
+extern template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigt>(const RodBatch<double>&);
 
 }  // namespace manyrods

@@ -12,5 +12,7 @@ template StaticResult solve_static<kAllTerms>(RodBatch<double>&, const StaticOpt
 template StaticResult solve_static<kNoKelvinVoigt>(RodBatch<double>&, const StaticOptions&);
 template StaticResult solve_static<kNoGravity>(RodBatch<double>&, const StaticOptions&);
 template StaticResult solve_static<kNoKelvinVoigtNoGravity>(RodBatch<double>&, const StaticOptions&);
+template std::vector<HoldReaction> hold_reactions<kAllTerms>(const RodBatch<double>&);
+template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigt>(const RodBatch<double>&);
 
 }  // namespace manyrods

@@ -319,4 +319,62 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   return res;
 }
 
+// The reactions (include/manyrods/statics.h): the generalized forces of a
+// copy at rest; a held node's force and its held frames' couples (material
+// components, turned to the lab frame by Qᵀ), negated.
+template <Terms kT>
+std::vector<HoldReaction> hold_reactions(const RodBatch<double>& batch) {
+  constexpr Terms kStatic = [] {
+    Terms t = kT;
+    t.kelvin_voigt = false;
+    return t;
+  }();
+  RodBatch<double> b = batch;
+  for (auto* a : {&b.state.node_v, &b.state.elem_w})
+    for (auto& x : *a)
+      for (std::size_t k = 0; k < x.size(); ++k) x[k] = 0;
+  std::array<Array<double>, 3> f, c;
+  for (int a = 0; a < 3; ++a) {
+    f[a].resize(b.slots(), 0.0);
+    c[a].resize(b.slots(), 0.0);
+  }
+  double* fp[3] = {f[0].data(), f[1].data(), f[2].data()};
+  double* cp[3] = {c[0].data(), c[1].data(), c[2].data()};
+  generalized_forces<kStatic>(b, fp, cp);
+  std::vector<HoldReaction> out;
+  for (int r = 0; r < b.rod_count(); ++r) {
+    const RodInfo& rod = b.rods[std::size_t(r)];
+    const int n = rod.elements, o = rod.offset;
+    int taken = -1;  // the last element slot counted (an element held by two clamps counts once)
+    for (int j = 0; j <= n; ++j) {
+      const int k = o + 1 + j;
+      if (b.model.node_inv_mass[k] != 0) continue;
+      HoldReaction h;
+      h.rod = r;
+      h.node = j;
+      for (int a = 0; a < 3; ++a) h.force[a] = -f[a][k];
+      // the frames this hold keeps: a clamped end's clamp frame (a ghost
+      // element), a clamped interior node's elements j − 1 and j
+      int frames[2] = {-1, -1};
+      if (j == 0 && rod.clamped_root) {
+        frames[0] = o;
+      } else if (j == n && rod.clamped_tip) {
+        frames[0] = o + n + 1;
+      } else if (j > 0 && j < n && b.model.elem_inv_inertia[0][o + j] == 0 && b.model.elem_inv_inertia[0][k] == 0) {
+        frames[0] = o + j;
+        frames[1] = k;
+      }
+      h.clamped = frames[0] >= 0;
+      for (const int e : frames) {
+        if (e < 0 || e <= taken) continue;
+        taken = e;
+        for (int a = 0; a < 3; ++a)  // Qᵀ c: rows of Q are the directors
+          for (int d = 0; d < 3; ++d) h.moment[a] -= b.state.elem_Q[3 * d + a][e] * c[d][e];
+      }
+      out.push_back(h);
+    }
+  }
+  return out;
+}
+
 }  // namespace manyrods

@@ -570,7 +570,7 @@ void collect_driven(RodBatch<T>& b, const std::vector<RodSpec>& specs) {
     seg.driven_begin = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_begin, by_rod) - b.driven.begin());
     seg.driven_end = int(std::lower_bound(b.driven.begin(), b.driven.end(), seg.rod_end, by_rod) - b.driven.begin());
   }
-  b.workspace->driven_root_velocity.assign(6 * b.driven.size(), T(0));
+  b.workspace->driven_root_velocity.assign(kHoldSaved * b.driven.size(), T(0));
 }
 
 // One rod's given geometry: element lengths and frames.

@@ -37,7 +37,11 @@ namespace detail {
 // or a stiff rod's one driven hold at its tip; kernels/viscous_implicit.h
 // rigid_shift). sign −1 keeps the hold's (v, ω_g) in `saved` and subtracts
 // its rigid field; +1 adds it back. Ω = Q_gᵀ ω_g and the hold's x do not
-// change in the solve. Other held unknowns keep their (shifted) prescribed
+// change in the solve. The tip's clamp frame (the tip ghost element, which
+// rigid_shift leaves alone) is a held unknown too: its relative value is
+// ω − Q Ω, and its own value is kept in `saved` and put back exactly (a
+// clamped tip held at rest with a nodding root feels the root's turn at its
+// joint; tests/test_constraints.cpp). Other held unknowns keep their (shifted) prescribed
 // velocities: their rods (RodInfo::prescribed) are solved with the fixed
 // unknowns' values lifted to the right-hand side (SolveGroup::lift).
 // shift_hold: hold i alone; shift_reference_holds: the reference holds of
@@ -47,8 +51,8 @@ void shift_hold(RodBatch<T>& b, int i, T sign) {
   const StateView<T> s = b.state_view();
   const DrivenHold& d = b.driven[std::size_t(i)];
   const RodInfo& rod = b.rods[d.rod];
-  T* saved = b.workspace->driven_root_velocity.data() + 6 * std::size_t(i);
-  const int k = d.node, g = d.frame[0];
+  T* saved = b.workspace->driven_root_velocity.data() + kHoldSaved * std::size_t(i);
+  const int k = d.node, g = d.frame[0], tip = rod.offset + rod.elements + 1;
   vec3<T> root[2];
   if (sign < T(0)) {
     root[0] = load3(s.node_v, k);
@@ -60,7 +64,15 @@ void shift_hold(RodBatch<T>& b, int i, T sign) {
     root[1] = {saved[3], saved[4], saved[5]};
   }
   const vec3<T> omega = mul_transpose(load_frame(s.elem_Q, g), root[1]);
+  if (sign < T(0) && tip != g) {
+    const vec3<T> own = load3(s.elem_w, tip);
+    saved[6] = own.x, saved[7] = own.y, saved[8] = own.z;
+  }
   rigid_shift(rod.offset + 1, rod.elements + 1, sign, root[0], omega, load3(s.node_x, k), s);
+  if (tip != g) {  // the tip's clamp frame: relative, or its own value back
+    const vec3<T> own{saved[6], saved[7], saved[8]};
+    store3(s.elem_w, tip, sign < T(0) ? own - mul(load_frame(s.elem_Q, tip), omega) : own);
+  }
   const vec3<T> zero{T(0), T(0), T(0)};
   store3(s.node_v, k, sign > T(0) ? root[0] : zero);
   store3(s.elem_w, g, sign > T(0) ? root[1] : zero);

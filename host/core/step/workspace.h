@@ -18,13 +18,20 @@
 
 namespace manyrods {
 
+// Values kept per driven hold across the implicit solve
+// (StepWorkspace::driven_root_velocity).
+inline constexpr int kHoldSaved = 9;
+
 // The rods of one call of the implicit per-rod solve: `count` rods of
 // SolvePlan::rods from `first`, longest first, solved one per SIMD lane
 // (count ≥ 2; `half`: at half the lane width, because a full group of its
-// longest rod does not fit a thread's buffer), by the scalar kernel
-// (count = 1), or — one long rod (count = 1, parts > 0) — cut into `parts`
+// longest rod does not fit a thread's buffer), or one rod alone (count = 1:
+// in one lane in double, by the scalar kernel in float unless solved in
+// double), or — one long rod (count = 1, parts > 0) — cut into `parts`
 // partitions solved one per lane (kernels/viscous_implicit_partitioned.h),
-// with its values at `offset` in StepWorkspace::visc_partition.
+// with its values at `offset` in StepWorkspace::visc_partition. `lift`:
+// rods with prescribed velocities (RodInfo::prescribed), full groups or one
+// rod, never partitioned, solved by the lane kernel with kLift.
 // docs/architecture.md "The implicit-solve plan".
 struct SolveGroup {
   int first = 0, count = 0;
@@ -116,9 +123,11 @@ struct StepWorkspace {
   std::array<Array<double>, 42> visc_wide;
   // the partitioned solves of long rods (SolveGroup::parts), one block per rod
   std::vector<T> visc_partition;
-  // [6 × driven roots] the root velocity and clamp angular velocity of each
-  // driven root, kept across the implicit solve (which runs on velocities
-  // relative to the root's rigid motion); entry i belongs to RodBatch::driven[i]
+  // [kHoldSaved × driven holds] the velocity and clamp angular velocity of
+  // each reference hold, and its rod's tip clamp frame's angular velocity,
+  // kept across the implicit solve (which runs on velocities relative to the
+  // hold's rigid motion, host/core/step/implicit_solve.h shift_hold); entry
+  // i belongs to RodBatch::driven[i]
   std::vector<T> driven_root_velocity;
   // one per thread (host/core/step/contact_solve.h), grown on first use
   std::vector<ContactSolveBuffer<T>> contact_solve;
