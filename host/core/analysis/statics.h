@@ -14,6 +14,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cstdlib>
 #include <cmath>
 #include <vector>
@@ -243,27 +244,37 @@ inline bool solve_banded(const BandedJacobian& J, const Eigen::VectorXd& rhs, Ei
   return x.allFinite();
 }
 
+// kT without the Kelvin–Voigt term: statics has no motion, no viscous force.
+template <Terms kT>
+inline constexpr Terms kStaticTerms = [] {
+  Terms t = kT;
+  t.kelvin_voigt = false;
+  return t;
+}();
+
+// Velocities to zero (a state at rest), and the generalized-force arrays
+// (one value per slot) sized for b.
+inline void at_rest(RodBatch<double>& b, std::array<Array<double>, 3>& f, std::array<Array<double>, 3>& c) {
+  for (auto* a : {&b.state.node_v, &b.state.elem_w})
+    for (auto& x : *a)
+      for (std::size_t k = 0; k < x.size(); ++k) x[k] = 0;
+  for (int a = 0; a < 3; ++a) {
+    f[a].resize(b.slots(), 0.0);
+    c[a].resize(b.slots(), 0.0);
+  }
+}
+
 }  // namespace detail
 
 // solve_static (include/manyrods/statics.h).
 template <Terms kT>
 StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
-  constexpr Terms kStatic = [] {
-    Terms t = kT;
-    t.kelvin_voigt = false;  // no motion, no viscous force
-    return t;
-  }();
-  for (auto* a : {&b.state.node_v, &b.state.elem_w})
-    for (auto& x : *a)
-      for (std::size_t k = 0; k < x.size(); ++k) x[k] = 0;
+  constexpr Terms kStatic = detail::kStaticTerms<kT>;
+  std::array<Array<double>, 3> f, c;
+  detail::at_rest(b, f, c);
   // remember full loads, then ramp
   const Loads<double> full_loads = b.loads;
   const std::array<double, 3> full_g = b.model.gravity;
-  std::array<Array<double>, 3> f, c;
-  for (int a = 0; a < 3; ++a) {
-    f[a].resize(b.slots(), 0.0);
-    c[a].resize(b.slots(), 0.0);
-  }
   StaticResult res;
   for (int r = 0; r < b.rod_count(); ++r) {
     detail::RodDofs d;
@@ -324,23 +335,12 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
 // components, turned to the lab frame by Qᵀ), negated.
 template <Terms kT>
 std::vector<HoldReaction> hold_reactions(const RodBatch<double>& batch) {
-  constexpr Terms kStatic = [] {
-    Terms t = kT;
-    t.kelvin_voigt = false;
-    return t;
-  }();
   RodBatch<double> b = batch;
-  for (auto* a : {&b.state.node_v, &b.state.elem_w})
-    for (auto& x : *a)
-      for (std::size_t k = 0; k < x.size(); ++k) x[k] = 0;
   std::array<Array<double>, 3> f, c;
-  for (int a = 0; a < 3; ++a) {
-    f[a].resize(b.slots(), 0.0);
-    c[a].resize(b.slots(), 0.0);
-  }
+  detail::at_rest(b, f, c);
   double* fp[3] = {f[0].data(), f[1].data(), f[2].data()};
   double* cp[3] = {c[0].data(), c[1].data(), c[2].data()};
-  generalized_forces<kStatic>(b, fp, cp);
+  generalized_forces<detail::kStaticTerms<kT>>(b, fp, cp);
   std::vector<HoldReaction> out;
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodInfo& rod = b.rods[std::size_t(r)];
