@@ -242,9 +242,10 @@ void prescribed_vs_dense(unsigned seed, int elements, double h) {
         ck[v]->num(got[v](i), want(i), scale(i), where("cell", l, c) + " unknown " + std::to_string(i % 6));
       const int k = first[l] + c;
       const T minv = i % 6 < 3 ? b.model.node_inv_mass[k] : b.model.elem_inv_inertia[i % 6 - 3][k];
-      if (minv == T(0))
+      if (minv == T(0)) {
         for (int v = 0; v < 3; ++v)
           EXPECT_EQ(got[v](i), sys.uminus(i)) << "a fixed unknown keeps its value: lane " << l << " unknown " << i;
+      }
     }
   }
 }

@@ -345,7 +345,9 @@ TEST(Statics, HoldReactionsBalanceTheLoads) {
       ++holds;
       const Vec3 mr = cross3(b.position(r, hr.node), hr.force);
       for (int i = 0; i < 3; ++i) force[i] += hr.force[i], moment[i] += mr[i] + hr.moment[i];
-      if (!hr.clamped) EXPECT_EQ(hr.moment[0] * hr.moment[0] + hr.moment[1] * hr.moment[1] + hr.moment[2] * hr.moment[2], 0.0);
+      if (!hr.clamped) {
+        EXPECT_EQ(hr.moment[0] * hr.moment[0] + hr.moment[1] * hr.moment[1] + hr.moment[2] * hr.moment[2], 0.0);
+      }
     }
     EXPECT_GT(holds, 0) << "rod " << r;
     std::printf("rod %d: %d holds; force balance %.2e N (residual %.2e), moment balance %.2e N m (residual %.2e)\n",

@@ -2,6 +2,8 @@
 //
 //   manyrods run scene.toml -o out.h5 [--threads N] [--until T] [--duration T]
 //   manyrods run --restart checkpoint.h5 -o out.h5 [--duration T] [--csv F]   (a run or a sweep)
+//   manyrods run scene.toml -o out.h5 --from-static        (start from the static equilibrium)
+//   manyrods static scene.toml -o equilibrium.h5 [--at T]   (static equilibrium and the reactions at the holds)
 //   manyrods sweep scene.toml --vary KEY=SPEC [--vary ...] [--design mc|lhs|sobol --samples N --seed S] [--until T] -o sweep.h5 [--csv F]
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
@@ -10,7 +12,8 @@
 //   manyrods --version
 //
 // Exit status: 0 done, 3 done with validity warnings, 1 the simulation
-// failed (non-finite state, a validity error) or a tool failed, 2 bad input
+// failed (non-finite state, a validity error, a static solve without
+// equilibrium) or a tool failed, 2 bad input
 // (scene, options, HDF5 file, a step above the stable limit, an unwritable
 // output), 130 interrupted by Ctrl-C (the output is then a valid file with
 // the frames so far and a checkpoint).
@@ -28,6 +31,7 @@
 #include <map>
 #include <sstream>
 
+#include "manyrods/any_batch.h"
 #include "manyrods/bench.h"
 #include "manyrods/h5io.h"
 #include "manyrods/isa.h"
@@ -142,6 +146,8 @@ struct Options {
   std::string scene_path, output, restart, csv, usd, plot_dir, input;
   int threads = default_threads(), samples = 0, every = 1;
   double until = -1, duration = -1;
+  double at = 0;             // static: the time of the driven holds' poses
+  bool from_static = false;  // run: start from the static equilibrium
   std::uint64_t seed = 0;
   bool progress = isatty(2) != 0, no_progress = false, force_progress = false, profile = false;
   bool force_dt = false, resume = false;
@@ -158,7 +164,7 @@ struct Options {
 };
 
 struct Commands {
-  CLI::App *run, *sweep, *exp, *plot, *bench;
+  CLI::App *run, *sweep, *exp, *plot, *bench, *stat;
 };
 
 // (CLI11's PositiveNumber prints the whole range up to DBL_MAX)
@@ -202,6 +208,8 @@ CLI::App* add_run_command(CLI::App& app, Options& o) {
                   "wall seconds between checkpoints, each closing a part of the output (0: none; default 300)")
       ->check(number_check(false));
   run->add_flag("--resume", o.resume, "continue this scene's run into this output from its last checkpoint (after a kill)");
+  run->add_flag("--from-static", o.from_static,
+                "start from the rods' static equilibrium under the scene's loads (what `manyrods static` solves), at rest");
   add_force_dt_flag(run, o);
   add_progress_flags(run, o);
   return run;
@@ -243,7 +251,7 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
 }
 
 Commands add_commands(CLI::App& app, Options& o) {
-  Commands c{add_run_command(app, o), add_sweep_command(app, o), nullptr, nullptr, nullptr};
+  Commands c{add_run_command(app, o), add_sweep_command(app, o), nullptr, nullptr, nullptr, nullptr};
   c.exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
   c.exp->add_option("input", o.input, "manyrods HDF5 output")->required();
   c.exp->add_option("--usd", o.usd, "USD ASCII file to write (.usda)")->required();
@@ -263,6 +271,12 @@ Commands add_commands(CLI::App& app, Options& o) {
       ->check(CLI::IsMember({"float", "double"}));
   c.bench->add_option("--json", o.json, "write the runs in Google Benchmark's JSON format to this file");
   add_force_dt_flag(c.bench, o);
+  c.stat = app.add_subcommand("static", "the static equilibrium of a scene's rods and the reactions at their holds");
+  c.stat->add_option("scene", o.scene_path, "scene file (TOML)")->required();
+  c.stat->add_option("-o,--output", o.output, "output HDF5 file (one frame, /holds, a checkpoint)")->required();
+  c.stat->add_option("--at", o.at, "time (s) whose poses the driven holds take (default 0)")->check(number_check(false));
+  c.stat->add_option("--threads", o.threads, "OpenMP threads (rods solved in parallel; results do not depend on it)")
+      ->check(positive);
   c.bench->add_flag("--stiff-solve-float", o.stiff_solve_float,
                     "solve a float batch's stiff rods in float (faster; loses the slow motion at frame-rate steps: "
                     "for comparison only)");
@@ -308,6 +322,10 @@ int command_run(const Options& o) {
     std::fprintf(stderr, "manyrods run: --resume continues a scene's run into its output (give the scene, not --restart)\n");
     return 2;
   }
+  if (!o.restart.empty() && o.from_static) {
+    std::fprintf(stderr, "manyrods run: --from-static starts a scene's run (a restart continues from its checkpoint)\n");
+    return 2;
+  }
   if (!o.restart.empty() && o.force_dt) {
     std::fprintf(stderr, "manyrods run: --force-dt: a restart keeps the step of the run it continues\n");
     return 2;
@@ -334,6 +352,7 @@ int command_run(const Options& o) {
     s.sim.force_dt = o.force_dt;
     RunOptions ro = opt;
     ro.resume = o.resume;  // (run_scene finds the parts' last checkpoint)
+    ro.from_static = o.from_static;
     ro.on_note = [](const std::string& line) { std::fprintf(stderr, "manyrods: %s\n", line.c_str()); };
     r = run_scene(s, ro);
     if (!s.sim.dt_auto && r.dt != s.sim.dt)
@@ -468,11 +487,43 @@ int command_export(const Options& o) {
   return 0;
 }
 
+// `manyrods static`: the equilibrium (include/manyrods/any_batch.h
+// static_equilibrium) as one frame with the reactions at the holds and a
+// checkpoint (`run --restart` continues from it); nothing is written
+// without an equilibrium.
+int command_static(const Options& o) {
+  const Scene s = load_scene(o.scene_path);
+  check_h5_output(o.output, s.inputs, "-o");
+  if (o.at > s.sim.duration)
+    throw SceneError(s.source + ": --at " + std::to_string(o.at) + ": after the scene's duration (" +
+                     std::to_string(s.sim.duration) + " s), the span its motions are given for");
+  StaticResult r;
+  const AnyBatch b = static_equilibrium(s, o.at, &r);
+  const h5::Holds h = b.holds_record(r);
+  b.save(o.output, &h);
+  std::fprintf(stderr,
+               "manyrods static: equilibrium at t = %.6g s after %d Newton iterations in %d load increments, residual "
+               "%.3g N, %.3g N m; %zu holds -> %s\n",
+               o.at, r.iterations, r.load_increments, r.residual_force, r.residual_couple, h.rod.size(), o.output.c_str());
+  const std::size_t shown = std::min<std::size_t>(h.rod.size(), 20);
+  if (shown > 0) std::fprintf(stderr, "  rod  node  kind     force (N)                              moment (N m)\n");
+  for (std::size_t i = 0; i < shown; ++i)
+    std::fprintf(stderr, "%5d %5d  %-7s  (%11.4g, %11.4g, %11.4g)  (%11.4g, %11.4g, %11.4g)\n", h.rod[i], h.node[i],
+                 h.clamped[i] ? "clamped" : "pinned", h.force[3 * i], h.force[3 * i + 1], h.force[3 * i + 2],
+                 h.moment[3 * i], h.moment[3 * i + 1], h.moment[3 * i + 2]);
+  if (shown < h.rod.size()) std::fprintf(stderr, "  ... (%zu more in /holds)\n", h.rod.size() - shown);
+  return 0;
+}
+
 // The exit status of an error (see the top of this file), with its message.
 int report(const std::exception& e) {
   if (dynamic_cast<const SceneError*>(&e) || dynamic_cast<const h5::H5Error*>(&e)) {
     std::fprintf(stderr, "manyrods: error: %s\n", e.what());
     return 2;
+  }
+  if (dynamic_cast<const StaticError*>(&e)) {
+    std::fprintf(stderr, "manyrods: the static solve failed: %s\n(no output written)\n", e.what());
+    return 1;
   }
   if (dynamic_cast<const ValidityError*>(&e)) {
     std::fprintf(stderr, "manyrods: the simulation failed: %s\n(no output written; validity.on_violation = \"error\")\n",
@@ -552,6 +603,7 @@ int main(int argc, char** argv) {
     if (c.exp->parsed()) return command_export(o);
     if (c.plot->parsed()) return plot(o.input, o.plot_dir);
     if (c.bench->parsed()) return command_bench(o);
+    if (c.stat->parsed()) return command_static(o);
   } catch (const std::exception& e) {
     return report(e);
   }

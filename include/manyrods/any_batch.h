@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "manyrods/batch.h"
+#include "manyrods/h5io.h"
 #include "manyrods/scene.h"
 #include "manyrods/stable_dt.h"
 #include "manyrods/statics.h"
@@ -76,8 +77,15 @@ class AnyBatch {
   void check_dt(double dt) const;
   Energies energies(int rod = -1) const;
   StableDt stable_dt() const;
-  // Static equilibrium from the current state (double batches; InputError for float).
+  // Static equilibrium from the current state (scene_solve_static; double
+  // batches, InputError for float). With opt.hold_time the driven holds go
+  // to their pose at that time, and a converged solve sets the batch's time
+  // to it. A result without equilibrium leaves the rods where the solve
+  // stopped; static_failure says why in words.
   StaticResult solve_static(const StaticOptions& opt = {});
+  std::string static_failure(const StaticResult& r) const;
+  // What each hold exerts on its rod now (scene_hold_reactions; double batches).
+  std::vector<HoldReaction> hold_reactions() const;
   std::uint64_t state_hash() const;
 
   double time() const;
@@ -105,8 +113,13 @@ class AnyBatch {
 
   // A manyrods output file (include/manyrods/h5io.h) with this state as its
   // one frame and its checkpoint (a scene's batch: `manyrods run --restart`
-  // continues it). h5::H5Error when it cannot be written.
-  void save(const std::string& path) const;
+  // continues it). h5::H5Error when it cannot be written. With `holds`,
+  // the file also has /holds and /static (a static equilibrium's reactions,
+  // include/manyrods/h5io.h Holds).
+  void save(const std::string& path, const h5::Holds* holds = nullptr) const;
+  // The reactions of hold_reactions() and a static solve's result as the
+  // file's /holds and /static.
+  h5::Holds holds_record(const StaticResult& r) const;
 
  private:
   AnyBatch() = default;
@@ -118,5 +131,14 @@ class AnyBatch {
   mutable double checked_dt_ = 0;  // the longest step check_dt has passed
   std::vector<std::shared_ptr<HostMotion>> host_motions_;  // this batch's own (not the Scene's)
 };
+
+// The scene's rods (double precision, initial state applied) in static
+// equilibrium with every driven hold at its pose at time `at` (s, ≥ 0;
+// AnyBatch::solve_static), the batch's time set to `at`: what `manyrods
+// static` writes and `manyrods run --from-static` starts from. SceneError
+// naming the scene for what the static solve does not take and for a rod
+// that is a mechanism under its loads; StaticError when Newton finds no
+// equilibrium (both in AnyBatch::static_failure's words).
+AnyBatch static_equilibrium(const Scene& s, double at, StaticResult* result = nullptr, const StaticOptions& opt = {});
 
 }  // namespace manyrods::scene

@@ -26,6 +26,7 @@
 //                         dissipated, dissipation_rate, observed,
 //                         observed_last} (its records so far)
 //   /observables          a run's observables, one value per dataset
+//   /holds, /static       (manyrods static) the reactions at the holds (Holds)
 //   /sweep                (manyrods sweep) parameters, summary and statistics columns
 // Root attributes: format = "manyrods", format_version = 2, precision,
 // integrator, dt. Frames are chunked one frame per chunk (at most 2^16 nodes)
@@ -166,6 +167,20 @@ void write_sweep_index(const std::string& path, const SweepIndex& index);
 bool is_sweep_index(const std::string& path);
 SweepIndex read_sweep_index(const std::string& path);
 
+// The reactions at the holds of a static equilibrium (`manyrods static`):
+// /holds/rod, /holds/node, /holds/clamped [H] (int32, int32, int8),
+// /holds/force, /holds/moment [H, 3] (N, N·m, lab frame: what the hold
+// exerts on its rod; a pinned hold's moment is zero), and the attributes of
+// /static: time (s, the holds' poses), residual_force (N), residual_couple
+// (N·m), newton_iterations, load_increments.
+struct Holds {
+  std::vector<std::int32_t> rod, node;
+  std::vector<std::int8_t> clamped;
+  std::vector<double> force, moment;  // [H * 3]
+  double time = 0, residual_force = 0, residual_couple = 0;
+  std::int64_t iterations = 0, load_increments = 0;
+};
+
 class Writer {
  public:
   Writer(const std::string& path, const Layout& layout, const RunInfo& info);
@@ -188,6 +203,8 @@ class Writer {
   // /observables: one dataset per column (include/manyrods/observables.h)
   // holding its one value (a run that is not a sweep).
   void write_observables(const std::vector<Column>& columns);
+  // /holds and /static (Holds above).
+  void write_holds(const Holds& holds);
   std::int64_t frames() const;
   // Closes the file and renames <path>.tmp to <path>.
   void finish();

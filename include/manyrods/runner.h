@@ -76,6 +76,9 @@ struct RunOptions {
   // again): run_scene reads it; without a complete part yet it runs from
   // the start (and says so through on_note)
   bool resume = false;
+  // start from the rods' static equilibrium at t = 0 (include/manyrods/scene.h
+  // start_from_static) instead of the scene's initial state
+  bool from_static = false;
   int threads = 1;
   double until = -1;      // stop at the first sample point at or after this time (< 0: never)
   double duration = -1;   // overrides [simulation] duration when > 0

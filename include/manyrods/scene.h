@@ -35,6 +35,13 @@ namespace manyrods::scene {
 struct SceneError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+// A static solve that found no equilibrium where one may exist (Newton
+// failing: a snap-through, a path that ends), naming the rod and residual
+// (static_failure); a rod that is a mechanism under its loads is a
+// SceneError (bad input).
+struct StaticError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 enum class Precision { float64, float32 };
 
@@ -204,8 +211,23 @@ template <class T>
 StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c);
 
 // solve_static<Terms>(b, opt) with the choice's Kelvin–Voigt and gravity
-// terms (InputError for a choice with contact: statics knows none).
+// terms. InputError for what the static solve does not take: contact (a
+// choice with colliders or rod contact), a fluid's wind (its buoyancy
+// counts; drag at rest in still fluid is zero), hold_time < 0 or not finite
+// when given.
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt = {});
+// hold_reactions<Terms>(b) with the choice's terms.
+std::vector<HoldReaction> scene_hold_reactions(const RodBatch<double>& b, const StepChoice& c);
+// A static solve that found no equilibrium, in words: the rod (its name,
+// index and group, from the scene when given), the node with the largest
+// residual force, the load fraction reached and why (a mechanism under
+// its loads, or Newton failing: a snap-through or no equilibrium near).
+std::string static_failure(const StaticResult& r, const RodBatch<double>& b, const Scene* s = nullptr);
+// b's state replaced by the scene's static equilibrium at t = 0
+// (include/manyrods/any_batch.h static_equilibrium), velocities zero:
+// `manyrods run --from-static`.
+template <class T>
+void start_from_static(const Scene& s, RodBatch<T>& b);
 
 // Largest strain of a rod: manyrods/strain.h (max_strain, strain_peak,
 // StrainPeak), named here too for scene code.

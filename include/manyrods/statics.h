@@ -4,6 +4,7 @@
 // precision batches only. The method is described in host/core/analysis/statics.h.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "manyrods/batch.h"
@@ -13,21 +14,48 @@
 namespace manyrods {
 
 struct StaticOptions {
+  // The first load increment is 1/load_steps; then each is halved where
+  // Newton fails and doubled (up to 1/load_steps) where it converges in a
+  // few iterations, down to min_load_step, below which the solve gives up.
   int load_steps = 10;
+  double min_load_step = 1.0 / 4096;
   int max_newton_iterations = 50;
   double tolerance = 1e-10;  // on |Δx|/L and |Δφ| (rad), the Newton update
   double max_update = 0.05;  // cap on one update (same measure)
+  // Driven holds (include/manyrods/drive.h) put at their motion's pose at
+  // this time (s), walked there from where they are along the load path;
+  // NaN: they stay where they are.
+  double hold_time = std::numeric_limits<double>::quiet_NaN();
+  int threads = 0;  // 1: one rod at a time; otherwise rods in parallel on OpenMP's threads
 };
 
 struct StaticResult {
   bool converged = true;
   int iterations = 0;       // total Newton iterations
-  double last_update = 0;   // size of the last Newton update
+  int load_increments = 0;  // load increments taken, all rods
+  double last_update = 0;   // the largest last Newton update of a rod
+  // What is left out of balance: the largest |force| on a free node (N)
+  // and |couple| on a free element (N·m), at the full load when converged,
+  // else the failed rod's at the load it could not reach.
+  double residual_force = 0, residual_couple = 0;
+  // When not converged: the first rod without an equilibrium, its node
+  // with the largest residual force, the load fraction it reached, and
+  // whether it is a mechanism under its loads (its stiffness matrix has
+  // zero_modes zero-energy motions along which the loads push: a free rod
+  // in gravity, a pendulum away from its vertical) or the Newton solve
+  // failed (a limit point: the path snaps through, or no equilibrium near).
+  int failed_rod = -1, failed_node = -1;
+  double load_reached = 1;
+  int zero_modes = 0;
+  bool mechanism = false;
 };
 
-// Solves for static equilibrium under the batch's current loads and gravity,
-// starting from the current state; loads are ramped in opt.load_steps equal
-// steps. Velocities are set to zero. The Kelvin–Voigt term is ignored (no
+// Solves for static equilibrium under the batch's current loads and gravity
+// (and the buoyancy of a fluid), starting from the current state, rod by
+// rod; loads (and driven holds, with opt.hold_time) are ramped along the
+// load path in adaptive increments. Velocities are set to zero. Rods
+// without an equilibrium are left at the last load fraction reached
+// (StaticResult says which). The Kelvin–Voigt term is ignored (no
 // motion); kT selects the elastic terms and gravity.
 template <Terms kT = kAllTerms>
 StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt = {});
@@ -56,11 +84,14 @@ struct HoldReaction {
 // a static equilibrium (solve_static) these are the support reactions
 // (connector loads); they balance the loads on the rod, force and moment
 // (docs/model.md "Static equilibrium"). kT: the elastic terms, gravity and
-// loads to count (the Kelvin–Voigt term is ignored).
+// loads to count (the Kelvin–Voigt term is ignored); a fluid's buoyancy
+// counts with gravity.
 template <Terms kT = kAllTerms>
 std::vector<HoldReaction> hold_reactions(const RodBatch<double>& b);
 
 extern template std::vector<HoldReaction> hold_reactions<kAllTerms>(const RodBatch<double>&);
 extern template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigt>(const RodBatch<double>&);
+extern template std::vector<HoldReaction> hold_reactions<kNoGravity>(const RodBatch<double>&);
+extern template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigtNoGravity>(const RodBatch<double>&);
 
 }  // namespace manyrods

@@ -14,5 +14,7 @@ template StaticResult solve_static<kNoGravity>(RodBatch<double>&, const StaticOp
 template StaticResult solve_static<kNoKelvinVoigtNoGravity>(RodBatch<double>&, const StaticOptions&);
 template std::vector<HoldReaction> hold_reactions<kAllTerms>(const RodBatch<double>&);
 template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigt>(const RodBatch<double>&);
+template std::vector<HoldReaction> hold_reactions<kNoGravity>(const RodBatch<double>&);
+template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigtNoGravity>(const RodBatch<double>&);
 
 }  // namespace manyrods

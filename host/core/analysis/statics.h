@@ -32,19 +32,44 @@ struct RodDofs {
   int size() const { return 3 * int(node_slots.size() + elem_slots.size()); }
 };
 
+// The residual of the unknowns d at load fraction `lambda`: the internal
+// forces and couples (the elastic terms of kT) plus lambda times the
+// external ones (gravity, the displaced fluid's buoyancy with it, point
+// forces and couples), at rest. The resultants are computed over `seg`
+// (a rod's kernel blocks, rod_blocks; the whole batch by default), so a
+// rod's residual costs its own slots, not the batch's; f and c receive the
+// generalized forces on seg's slots.
 template <Terms kT>
 Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
-                                std::array<Array<double>, 3>& c) {
-  double* fp[3] = {f[0].data(), f[1].data(), f[2].data()};
-  double* cp[3] = {c[0].data(), c[1].data(), c[2].data()};
-  generalized_forces<kT>(b, fp, cp);
-  Eigen::VectorXd r(d.size());
+                                std::array<Array<double>, 3>& c, const Segment* seg = nullptr, double lambda = 1) {
+  constexpr Terms kInternal = [] {
+    Terms t = kT;
+    t.kelvin_voigt = t.gravity = t.loads = t.colliders = t.rod_contact = false;
+    return t;
+  }();
+  const Segment r = seg ? *seg : whole(b);
+  compute_resultants<kInternal>(b, Exec{}, r);
+  const ModelView<double> m = b.model_view();
+  const LoadsView<double> l = b.loads_view();
+  const ConstScratchView<double> sc = std::as_const(b).scratch_view();
+  const ConstStateView<double> s = std::as_const(b).state_view();
+  const bool buoyancy = kT.gravity && b.fluid.on && b.fluid.buoyancy;
+  for (int k = r.begin; k < r.end; ++k) {
+    vec3<double> ext = node_external_force<kT>(k, m, l);
+    if (buoyancy) ext = ext + (-b.fluid.node_buoyancy[k]) * m.gravity;
+    const vec3<double> fk = node_force(k, sc) + lambda * ext;
+    const mat3<double> Q = load_frame(s.elem_Q, k);
+    const vec3<double> ck = element_couple(k, sc) + lambda * element_external_couple<kT>(k, l, Q);
+    f[0][k] = fk.x, f[1][k] = fk.y, f[2][k] = fk.z;
+    c[0][k] = ck.x, c[1][k] = ck.y, c[2][k] = ck.z;
+  }
+  Eigen::VectorXd res(d.size());
   int i = 0;
   for (int k : d.node_slots)
-    for (int a = 0; a < 3; ++a) r[i++] = f[a][k];
+    for (int a = 0; a < 3; ++a) res[i++] = f[a][k];
   for (int k : d.elem_slots)
-    for (int a = 0; a < 3; ++a) r[i++] = c[a][k];
-  return r;
+    for (int a = 0; a < 3; ++a) res[i++] = c[a][k];
+  return res;
 }
 
 inline void apply_dofs(RodBatch<double>& b, const RodDofs& d, const Eigen::VectorXd& dx) {
@@ -100,7 +125,8 @@ inline void apply_dof(RodBatch<double>& b, const RodDofs& d, int col, double h) 
 constexpr int kReach = 2;
 template <Terms kT, class Store>
 void jacobian_entries(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
-                      std::array<Array<double>, 3>& c, double length, double h_rel, bool grouped, Store&& store) {
+                      std::array<Array<double>, 3>& c, double length, double h_rel, bool grouped, Store&& store,
+                      const Segment* seg = nullptr, double lambda = 1) {
   constexpr int kBand = 2 * kReach + 1;
   const int m = d.size(), nn = 3 * int(d.node_slots.size());
   const int first = std::min(d.node_slots.empty() ? 1 << 30 : d.node_slots[0], d.elem_slots.empty() ? 1 << 30 : d.elem_slots[0]);
@@ -121,9 +147,9 @@ void jacobian_entries(RodBatch<double>& b, const RodDofs& d, std::array<Array<do
       for (int col : group) apply_dof(b, d, col, s * (col < nn ? h_rel * length : h_rel));
     };
     shift(1);
-    const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c);
+    const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c, seg, lambda);
     shift(-2);
-    const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c);
+    const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c, seg, lambda);
     shift(1);
     for (int col : group) {
       const double h = col < nn ? h_rel * length : h_rel;
@@ -189,12 +215,16 @@ struct BandedJacobian {
 
 template <Terms kT>
 void banded_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
-                     std::array<Array<double>, 3>& c, double length, double h_rel, BandedJacobian& J) {
+                     std::array<Array<double>, 3>& c, double length, double h_rel, BandedJacobian& J,
+                     const Segment* seg = nullptr, double lambda = 1) {
   constexpr int w = BandedJacobian::w;
   J.B.setZero(d.size(), 3 * w + 1);
-  jacobian_entries<kT>(b, d, f, c, length, h_rel, true, [&](int row, int col, double v) {
-    J.B(J.pos[std::size_t(row)], J.pos[std::size_t(col)] - J.pos[std::size_t(row)] + w) = v;
-  });
+  jacobian_entries<kT>(
+      b, d, f, c, length, h_rel, true,
+      [&](int row, int col, double v) {
+        J.B(J.pos[std::size_t(row)], J.pos[std::size_t(col)] - J.pos[std::size_t(row)] + w) = v;
+      },
+      seg, lambda);
 }
 
 // Solves J x = rhs by Gaussian elimination with partial pivoting within the
@@ -266,67 +296,257 @@ inline void at_rest(RodBatch<double>& b, std::array<Array<double>, 3>& f, std::a
 
 }  // namespace detail
 
+namespace detail {
+
+// A rod's slots [o, o + n + 2) rounded out to whole kernel blocks (kGuard
+// slots, the unit launch_with_fallback runs in): the range its residual
+// computes resultants over. Rods whose ranges are disjoint can be solved at
+// the same time.
+inline Segment rod_blocks(const RodInfo& rod) {
+  const int lo = rod.offset / kGuard * kGuard;
+  const int hi = (rod.offset + rod.elements + 2 + kGuard - 1) / kGuard * kGuard;
+  return {lo, hi, 0, 0, false};
+}
+
+// A driven hold's way from where it is to its pose at the solve's hold time
+// (StaticOptions::hold_time), walked with the load fraction λ: the node on
+// the straight line, each held frame turned at a constant rate,
+// Q(λ) = exp(λ ψ) Q_start with exp(ψ) = Q_end Q_startᵀ.
+struct HoldPath {
+  int node = -1;
+  vec3<double> x0{}, x1{};
+  int frame[2] = {-1, -1};
+  mat3<double> q0[2]{};
+  vec3<double> psi[2]{};
+};
+
+inline std::vector<HoldPath> hold_paths(const RodBatch<double>& b, int rod, double t) {
+  std::vector<HoldPath> out;
+  if (!std::isfinite(t)) return out;
+  for (const DrivenHold& d : b.driven) {
+    if (d.rod != rod) continue;
+    const Pose p = b.motions[std::size_t(d.motion)]->at(t);
+    mat3<double> R;
+    for (int i = 0; i < 9; ++i) R.m[i] = p.rotation[i];
+    HoldPath h;
+    h.node = d.node;
+    for (int a = 0; a < 3; ++a) (&h.x0.x)[a] = b.state.node_x[a][d.node];
+    h.x1 = mul_add(R, vec3<double>{d.x0[0], d.x0[1], d.x0[2]},
+                   vec3<double>{p.translation[0], p.translation[1], p.translation[2]});
+    for (int f = 0; f < 2; ++f) {
+      if ((h.frame[f] = d.frame[f]) < 0) continue;
+      for (int i = 0; i < 9; ++i) h.q0[f].m[i] = b.state.elem_Q[i][d.frame[f]];
+      mat3<double> q0b;
+      for (int i = 0; i < 9; ++i) q0b.m[i] = d.q0[f][i];
+      const mat3<double> q1 = mul_transpose(q0b, R);  // Q = Q₀ Rᵀ (include/manyrods/drive.h)
+      double theta, s, c;
+      h.psi[f] = rotation_log(mul_transpose(q1, h.q0[f]), theta, s, c);
+    }
+    out.push_back(h);
+  }
+  return out;
+}
+
+inline void place_holds(RodBatch<double>& b, const std::vector<HoldPath>& paths, double lambda) {
+  for (const HoldPath& h : paths) {
+    const vec3<double> x = h.x0 + lambda * (h.x1 - h.x0);
+    b.state.node_x[0][h.node] = x.x, b.state.node_x[1][h.node] = x.y, b.state.node_x[2][h.node] = x.z;
+    for (int f = 0; f < 2; ++f) {
+      if (h.frame[f] < 0) continue;
+      const mat3<double> q = mul(rotation_exp(lambda * h.psi[f]), h.q0[f]);
+      for (int i = 0; i < 9; ++i) b.state.elem_Q[i][h.frame[f]] = q.m[i];
+    }
+  }
+}
+
+// What one rod's solve found (solve_static merges them).
+struct RodOutcome {
+  bool ok = true;
+  int iterations = 0, increments = 0;
+  double last_update = 0, lambda = 1;
+  double residual_force = 0, residual_couple = 0;
+  int worst_node = -1, zero_modes = 0;
+  bool mechanism = false;
+};
+
+// The largest |force| on a free node and |couple| on a free element of the
+// residual vector r (ordered as RodDofs), and the node of the first.
+inline void residual_size(const RodDofs& d, const Eigen::VectorXd& r, int first_node, RodOutcome& o) {
+  o.residual_force = o.residual_couple = 0;
+  const int nn = int(d.node_slots.size());
+  for (int i = 0; i < nn; ++i) {
+    const double v = r.segment(3 * i, 3).norm();
+    if (v > o.residual_force || o.worst_node < 0) o.residual_force = v, o.worst_node = d.node_slots[std::size_t(i)] - first_node;
+  }
+  for (int i = nn; i < nn + int(d.elem_slots.size()); ++i) o.residual_couple = std::max(o.residual_couple, r.segment(3 * i, 3).norm());
+}
+
+// Rod `r` to static equilibrium (solve_static's method, one rod): Newton at
+// each load fraction λ, increments adapted (halved where Newton fails,
+// doubled up to 1/load_steps where it converges in a few iterations).
+template <Terms kT>
+RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::array<Array<double>, 3>& f,
+                     std::array<Array<double>, 3>& c) {
+  RodOutcome out;
+  const RodInfo& rod = b.rods[std::size_t(r)];
+  const int n = rod.elements, o = rod.offset;
+  RodDofs d;
+  double length = 0;
+  for (int e = 0; e < n; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
+  for (int j = 0; j <= n; ++j)
+    if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
+  for (int e = 0; e < n; ++e)  // (a clamped interior node holds the frames on either side)
+    if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
+  const std::vector<HoldPath> paths = hold_paths(b, r, opt.hold_time);
+  const int m = d.size(), nn = 3 * int(d.node_slots.size());
+  if (m == 0) {  // every unknown held: only the holds move
+    place_holds(b, paths, 1);
+    return out;
+  }
+  const Segment seg = rod_blocks(rod);
+  BandedJacobian J;
+  J.plan(d, o);  // (cells count from the rod's first slot)
+  // the rod's state at the last load fraction reached (its slots o … o + n + 1)
+  std::vector<double> saved(std::size_t(12 * (n + 2)));
+  auto keep = [&](bool save) {
+    std::size_t i = 0;
+    auto move = [&](double& x) {
+      if (save)
+        saved[i++] = x;
+      else
+        x = saved[i++];
+    };
+    for (int k = o; k < o + n + 2; ++k) {
+      for (int a = 0; a < 3; ++a) move(b.state.node_x[a][k]);
+      for (int a = 0; a < 9; ++a) move(b.state.elem_Q[a][k]);
+    }
+  };
+  // Newton at load fraction lam: true when the update falls below the tolerance.
+  auto newton = [&](double lam, int& iterations) {
+    iterations = 0;
+    for (int it = 0; it < opt.max_newton_iterations; ++it) {
+      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, &seg, lam);
+      if (!r0.allFinite()) return false;
+      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, &seg, lam);
+      // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
+      // by banded LU with partial pivoting (solve_banded); where J is
+      // singular or nearly so the LU's solution does not solve the system,
+      // and a rank-revealing pivoted QR takes over. A singular J whose
+      // range misses −r (the loads push along a motion that costs no
+      // energy: a free rod in gravity, a pendulum off its vertical) has
+      // no Newton step: the rod is a mechanism under its loads.
+      Eigen::VectorXd dq;
+      if (!solve_banded(J, -r0, dq) || (J.times(dq) + r0).norm() > 1e-8 * (r0.norm() + J.B.norm() * dq.norm())) {
+        const Eigen::MatrixXd A = J.dense();
+        Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+        qr.setThreshold(1e-8);
+        dq = qr.solve(-r0);
+        out.zero_modes = m - int(qr.rank());
+        if (out.zero_modes > 0 && (A * dq + r0).norm() > 1e-6 * r0.norm()) {
+          out.mechanism = true;
+          return false;
+        }
+      }
+      if (!dq.allFinite()) return false;
+      const double upd = std::max(nn > 0 ? dq.head(nn).cwiseAbs().maxCoeff() / length : 0.0,
+                                  m > nn ? dq.tail(m - nn).cwiseAbs().maxCoeff() : 0.0);
+      // Trust region: a full Newton step far from the solution can jump to
+      // another branch of the (non-convex) equilibrium problem; cap it.
+      if (upd > opt.max_update) dq *= opt.max_update / upd;
+      apply_dofs(b, d, dq);
+      ++iterations;
+      // converged: below the tolerance, or at the round-off floor (a small
+      // update that no longer shrinks: Newton's would, quadratically)
+      const bool floor = upd < 1e-8 && iterations > 1 && upd > 0.5 * out.last_update;
+      out.last_update = upd;
+      if (upd < opt.tolerance || floor) return true;
+    }
+    return false;
+  };
+  const double largest = 1.0 / std::max(1, opt.load_steps);
+  double lam = 0, inc = largest;
+  keep(true);
+  while (lam < 1) {
+    const double next = 1 - lam <= inc * (1 + 1e-9) ? 1.0 : lam + inc;
+    place_holds(b, paths, next);
+    int its = 0;
+    const bool ok = newton(next, its);
+    out.iterations += its;
+    if (ok) {
+      lam = next;
+      ++out.increments;
+      keep(true);
+      if (its <= 4) inc = std::min(2 * inc, largest);
+      continue;
+    }
+    keep(false);  // back to lam
+    place_holds(b, paths, lam);
+    inc *= 0.5;
+    if (out.mechanism || inc < opt.min_load_step) {
+      out.ok = false;
+      out.lambda = lam;
+      place_holds(b, paths, std::min(1.0, lam + 2 * inc));
+      residual_size(d, static_residual<kT>(b, d, f, c, &seg, std::min(1.0, lam + 2 * inc)), o + 1, out);
+      place_holds(b, paths, lam);
+      return out;
+    }
+  }
+  residual_size(d, static_residual<kT>(b, d, f, c, &seg, 1.0), o + 1, out);
+  return out;
+}
+
+// Rods in waves whose kernel blocks (rod_blocks) are disjoint: the rods of
+// a wave can be solved at the same time.
+inline std::vector<std::vector<int>> static_waves(const RodBatch<double>& b) {
+  std::vector<std::vector<int>> waves;
+  std::vector<int> last_end;  // per wave, the end of its last rod's blocks
+  for (int r = 0; r < b.rod_count(); ++r) {
+    const Segment s = rod_blocks(b.rods[std::size_t(r)]);
+    std::size_t w = 0;
+    while (w < waves.size() && last_end[w] > s.begin) ++w;
+    if (w == waves.size()) waves.emplace_back(), last_end.push_back(0);
+    waves[w].push_back(r);
+    last_end[w] = s.end;
+  }
+  return waves;
+}
+
+}  // namespace detail
+
 // solve_static (include/manyrods/statics.h).
 template <Terms kT>
 StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   constexpr Terms kStatic = detail::kStaticTerms<kT>;
   std::array<Array<double>, 3> f, c;
   detail::at_rest(b, f, c);
-  // remember full loads, then ramp
-  const Loads<double> full_loads = b.loads;
-  const std::array<double, 3> full_g = b.model.gravity;
+  std::vector<detail::RodOutcome> outcome(std::size_t(b.rod_count()));
+  for (const std::vector<int>& wave : detail::static_waves(b)) {
+    auto one = [&](std::size_t i) { outcome[std::size_t(wave[i])] = detail::solve_rod<kStatic>(b, wave[i], opt, f, c); };
+    if (opt.threads == 1 || wave.size() < 2)
+      for (std::size_t i = 0; i < wave.size(); ++i) one(i);
+    else
+      parallel_tasks(wave.size(), one);
+  }
   StaticResult res;
   for (int r = 0; r < b.rod_count(); ++r) {
-    detail::RodDofs d;
-    const int n = b.elements(r);
-    double length = 0;
-    for (int e = 0; e < n; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
-    for (int j = 0; j <= n; ++j)
-      if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
-    for (int e = 0; e < n; ++e)  // (a clamped interior node holds the frames on either side)
-      if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
-    const int m = d.size();
-    const int nn = 3 * int(d.node_slots.size());
-    detail::BandedJacobian J;
-    J.plan(d, b.rods[std::size_t(r)].offset);  // (cells count from the rod's first slot)
-    for (int ls = 1; ls <= opt.load_steps; ++ls) {
-      const double lambda = double(ls) / opt.load_steps;
-      for (int a = 0; a < 3; ++a)
-        for (int k = 0; k < b.slots(); ++k) {
-          b.loads.node_force[a][k] = lambda * full_loads.node_force[a][k];
-          b.loads.elem_couple[a][k] = lambda * full_loads.elem_couple[a][k];
-        }
-      b.model.gravity = {lambda * full_g[0], lambda * full_g[1], lambda * full_g[2]};
-      bool ok = false;
-      for (int it = 0; it < opt.max_newton_iterations; ++it) {
-        const Eigen::VectorXd r0 = detail::static_residual<kStatic>(b, d, f, c);
-        detail::banded_jacobian<kStatic>(b, d, f, c, length, 1e-6, J);
-        // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
-        // by banded LU with partial pivoting (solve_banded); where J is
-        // singular or nearly so (a rod free to move rigidly) the LU's
-        // solution does not solve the system, and the pivoted QR, which
-        // copes with the rank deficiency, takes over.
-        Eigen::VectorXd dq;
-        if (!detail::solve_banded(J, -r0, dq) || (J.times(dq) + r0).norm() > 1e-8 * (r0.norm() + J.B.norm() * dq.norm()))
-          dq = J.dense().colPivHouseholderQr().solve(-r0);
-        const double upd = std::max(dq.head(nn).cwiseAbs().maxCoeff() / length,
-                                    dq.tail(m - nn).cwiseAbs().maxCoeff());
-        // Trust region: a full Newton step far from the solution can jump to
-        // another branch of the (non-convex) equilibrium problem; cap it.
-        if (upd > opt.max_update) dq *= opt.max_update / upd;
-        detail::apply_dofs(b, d, dq);
-        ++res.iterations;
-        res.last_update = upd;
-        if (upd < opt.tolerance) {
-          ok = true;
-          break;
-        }
-      }
-      if (!ok) res.converged = false;
+    const detail::RodOutcome& o = outcome[std::size_t(r)];
+    res.iterations += o.iterations;
+    res.load_increments += o.increments;
+    res.last_update = std::max(res.last_update, o.last_update);
+    if (res.converged) {
+      res.residual_force = std::max(res.residual_force, o.residual_force);
+      res.residual_couple = std::max(res.residual_couple, o.residual_couple);
     }
+    if (o.ok || !res.converged) continue;
+    res.converged = false;
+    res.failed_rod = r;
+    res.failed_node = o.worst_node;
+    res.load_reached = o.lambda;
+    res.residual_force = o.residual_force;
+    res.residual_couple = o.residual_couple;
+    res.zero_modes = o.zero_modes;
+    res.mechanism = o.mechanism;
   }
-  b.loads = full_loads;
-  b.model.gravity = full_g;
   return res;
 }
 
@@ -338,9 +558,7 @@ std::vector<HoldReaction> hold_reactions(const RodBatch<double>& batch) {
   RodBatch<double> b = batch;
   std::array<Array<double>, 3> f, c;
   detail::at_rest(b, f, c);
-  double* fp[3] = {f[0].data(), f[1].data(), f[2].data()};
-  double* cp[3] = {c[0].data(), c[1].data(), c[2].data()};
-  generalized_forces<detail::kStaticTerms<kT>>(b, fp, cp);
+  (void)detail::static_residual<detail::kStaticTerms<kT>>(b, detail::RodDofs{}, f, c);  // (f, c on every slot)
   std::vector<HoldReaction> out;
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodInfo& rod = b.rods[std::size_t(r)];

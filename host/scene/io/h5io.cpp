@@ -508,6 +508,33 @@ void Writer::write_sweep(const std::vector<Column>& parameters, const std::vecto
   column_group(g.get(), "summary", summary, w.tmp);
 }
 
+void Writer::write_holds(const Holds& h) {
+  Impl& w = *impl_;
+  const std::size_t n = h.rod.size();
+  if (h.node.size() != n || h.clamped.size() != n || h.force.size() != 3 * n || h.moment.size() != 3 * n)
+    fail(w.tmp, "holds: the columns differ in length");
+  const Id g = checked(H5Gcreate2(w.file.get(), "holds", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                       "cannot create /holds");
+  write_vector(g.get(), "rod", H5T_NATIVE_INT32, h.rod, w.tmp);
+  write_vector(g.get(), "node", H5T_NATIVE_INT32, h.node, w.tmp);
+  write_vector(g.get(), "clamped", H5T_NATIVE_INT8, h.clamped, w.tmp);
+  for (const auto& [name, v] : {std::pair<const char*, const std::vector<double>*>{"force", &h.force}, {"moment", &h.moment}}) {
+    const Id d = create_dataset(g.get(), name, H5T_NATIVE_DOUBLE, {hsize_t(n), 3}, {std::max<hsize_t>(1, hsize_t(n)), 3},
+                                false, w.tmp);
+    if (n > 0)
+      check(H5Dwrite(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v->data()), w.tmp,
+            std::string("cannot write /holds/") + name);
+  }
+  attr_string(g.get(), "units", "force N, moment N m, lab frame: what each hold exerts on its rod", w.tmp);
+  const Id st = checked(H5Gcreate2(w.file.get(), "static", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, w.tmp,
+                        "cannot create /static");
+  attr_scalar<double>(st.get(), "time", h.time, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<double>(st.get(), "residual_force", h.residual_force, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<double>(st.get(), "residual_couple", h.residual_couple, H5T_NATIVE_DOUBLE, w.tmp);
+  attr_scalar<std::int64_t>(st.get(), "newton_iterations", h.iterations, H5T_NATIVE_INT64, w.tmp);
+  attr_scalar<std::int64_t>(st.get(), "load_increments", h.load_increments, H5T_NATIVE_INT64, w.tmp);
+}
+
 void Writer::write_observables(const std::vector<Column>& columns) {
   column_group(impl_->file.get(), "observables", columns, impl_->tmp);
 }

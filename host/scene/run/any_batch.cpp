@@ -183,7 +183,36 @@ StableDt AnyBatch::stable_dt() const {
 
 StaticResult AnyBatch::solve_static(const StaticOptions& opt) {
   if (float32()) throw InputError("solve_static: needs a double-precision batch (precision = \"double\")");
-  return scene_solve_static(f64(), choice_, opt);
+  const StaticResult r = scene_solve_static(f64(), choice_, opt);
+  if (r.converged && std::isfinite(opt.hold_time)) f64().state.time = opt.hold_time;
+  return r;
+}
+
+std::string AnyBatch::static_failure(const StaticResult& r) const {
+  if (float32()) return "";
+  return scene::static_failure(r, f64(), scene_.get());
+}
+
+std::vector<HoldReaction> AnyBatch::hold_reactions() const {
+  if (float32()) throw InputError("hold_reactions: needs a double-precision batch (precision = \"double\")");
+  return scene_hold_reactions(f64(), choice_);
+}
+
+h5::Holds AnyBatch::holds_record(const StaticResult& r) const {
+  h5::Holds h;
+  for (const HoldReaction& x : hold_reactions()) {
+    h.rod.push_back(x.rod);
+    h.node.push_back(x.node);
+    h.clamped.push_back(x.clamped ? 1 : 0);
+    h.force.insert(h.force.end(), x.force.begin(), x.force.end());
+    h.moment.insert(h.moment.end(), x.moment.begin(), x.moment.end());
+  }
+  h.time = time();
+  h.residual_force = r.residual_force;
+  h.residual_couple = r.residual_couple;
+  h.iterations = r.iterations;
+  h.load_increments = r.load_increments;
+  return h;
 }
 
 std::uint64_t AnyBatch::state_hash() const {
@@ -216,7 +245,7 @@ int AnyBatch::offset(int rod) const {
   return visit([&](const auto& b) { return b.rods[rod].offset; });
 }
 
-void AnyBatch::save(const std::string& path) const {
+void AnyBatch::save(const std::string& path, const h5::Holds* holds) const {
   visit([&](const auto& b) {
     using T = typename std::remove_cvref_t<decltype(b)>::value_type;
     const Scene& s = *scene_;
@@ -245,8 +274,30 @@ void AnyBatch::save(const std::string& path) const {
     c.scene_text = s.text;
     c.scene_source = s.source;
     w.write_checkpoint(c);
+    if (holds) w.write_holds(*holds);
     w.finish();
   });
+}
+
+AnyBatch static_equilibrium(const Scene& s, double at, StaticResult* result, const StaticOptions& options) {
+  if (!(at >= 0) || !std::isfinite(at))
+    throw SceneError(s.source + ": the static solve's time (--at) must be >= 0 and finite");
+  AnyBatch b = AnyBatch::from_scene(s, Precision::float64);
+  StaticOptions opt = options;
+  opt.hold_time = at;
+  StaticResult r;
+  try {
+    r = b.solve_static(opt);
+  } catch (const InputError& e) {
+    throw SceneError(s.source + ": " + e.what());
+  }
+  if (!r.converged) {
+    const std::string why = s.source + ": " + b.static_failure(r);
+    if (r.mechanism) throw SceneError(why);
+    throw StaticError(why);
+  }
+  if (result) *result = r;
+  return b;
 }
 
 }  // namespace manyrods::scene

@@ -81,6 +81,7 @@ class SceneRun {
  public:
   SceneRun(const Scene& s, const RunOptions& opt, const h5::Checkpoint* restart, StaticCache* cache)
       : s_(s), opt_(opt), restart_(restart), choice_(step_choice(s)), b_(build_scene_batch<T>(s, restart == nullptr, cache)) {
+    if (!restart && opt.from_static) start_from_static(s, b_);
     res_.dt = restart ? restart->dt : scene_dt(s, b_);
     res_.elements = b_.element_count();
     plan_steps();

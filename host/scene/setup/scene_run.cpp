@@ -1,5 +1,6 @@
 // host/scene/setup/scene_run.cpp — building and stepping a scene's batch (include/manyrods/scene.h "the batch of a scene").
 #include "manyrods/scene.h"
+#include "manyrods/any_batch.h"
 #include "setup/static_cache.h"
 
 #include <algorithm>
@@ -392,7 +393,17 @@ StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c) {
 
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt) {
   if (c.colliders || c.rod_contact)
-    throw InputError("solve_static: a batch with contact has no static solve (statics knows no contact)");
+    throw InputError("solve_static: the static solve takes no contact yet (colliders, rod-rod): run the dynamics to "
+                     "rest instead, or leave [contact] and [[colliders]] out");
+  const double t = std::isfinite(opt.hold_time) ? opt.hold_time : b.state.time;
+  if (!std::isnan(opt.hold_time) && !(opt.hold_time >= 0 && std::isfinite(opt.hold_time)))
+    throw InputError("solve_static: the time of the holds' poses must be >= 0 and finite");
+  if (b.fluid.on && (b.fluid.linear || b.fluid.quadratic)) {
+    const Vec3 u = b.fluid.spec.mean_velocity(t);
+    if (u[0] != 0 || u[1] != 0 || u[2] != 0 || !b.fluid.modes.empty())
+      throw InputError("solve_static: the static solve takes a fluid's buoyancy, not its wind (drag on rods at rest "
+                       "in a moving fluid): set the fluid's velocity and turbulence to zero, or run the dynamics");
+  }
   return with_terms(
       c,
       [&]<Terms kT>() {
@@ -404,6 +415,59 @@ StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const 
         return solve_static<k>(b, opt);
       },
       false);
+}
+
+std::vector<HoldReaction> scene_hold_reactions(const RodBatch<double>& b, const StepChoice& c) {
+  return with_terms(
+      c,
+      [&]<Terms kT>() {
+        constexpr Terms k = [] {
+          Terms t = kT;
+          t.colliders = t.rod_contact = false;
+          return t;
+        }();
+        return hold_reactions<k>(b);
+      },
+      false);
+}
+
+std::string static_failure(const StaticResult& r, const RodBatch<double>& b, const Scene* s) {
+  if (r.converged) return "";
+  std::ostringstream os;
+  os.precision(4);
+  const int rod = r.failed_rod;
+  os << "rod " << rod;
+  const std::string& name = b.rods[std::size_t(rod)].name;
+  if (!name.empty()) os << " (\"" << name << "\")";
+  if (s && rod < int(s->rod_group.size())) {
+    const RodGroup& g = s->groups[std::size_t(s->rod_group[std::size_t(rod)])];
+    os << " of group \"" << g.name << "\" (line " << g.line << ")";
+  }
+  os << ": no static equilibrium: ";
+  if (r.mechanism)
+    os << "it is free to move under its loads (" << r.zero_modes
+       << " motion(s) of zero stiffness along which the loads push, at load fraction " << r.load_reached
+       << "; residual force " << r.residual_force << " N at node " << r.failed_node
+       << "): hold it (a clamped root, a pinned tip), or take off the load that moves it";
+  else
+    os << "Newton's method did not converge beyond load fraction " << r.load_reached << " (residual force "
+       << r.residual_force << " N at node " << r.failed_node << ", couple " << r.residual_couple
+       << " N m): the equilibrium path snaps through or ends there";
+  return os.str();
+}
+
+template <class T>
+void start_from_static(const Scene& s, RodBatch<T>& b) {
+  const AnyBatch a = static_equilibrium(s, 0);
+  const RodBatch<double>& e = a.f64();
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < b.slots(); ++k) {
+      b.state.node_x[a][k] = T(e.state.node_x[a][k]);
+      b.state.node_v[a][k] = b.state.elem_w[a][k] = T(0);
+      if constexpr (sizeof(T) == 4) b.state.node_xc[a][k] = T(0);
+    }
+  for (int i = 0; i < 9; ++i)
+    for (int k = 0; k < b.slots(); ++k) b.state.elem_Q[i][k] = T(e.state.elem_Q[i][k]);
 }
 
 template <class T>
@@ -434,7 +498,8 @@ void gather_directors(const RodBatch<T>& b, std::vector<T>& out) {
   template Energies scene_energies<T>(const RodBatch<T>&, const StepChoice&, int);               \
   template StableDt scene_stable_dt<T>(const RodBatch<T>&, const StepChoice&);                   \
   template void gather_positions<T>(const RodBatch<T>&, std::vector<T>&);                        \
-  template void gather_directors<T>(const RodBatch<T>&, std::vector<T>&);
+  template void gather_directors<T>(const RodBatch<T>&, std::vector<T>&);                        \
+  template void start_from_static<T>(const Scene&, RodBatch<T>&);
 MANYRODS_SCENE_INSTANTIATE(float)
 MANYRODS_SCENE_INSTANTIATE(double)
 
