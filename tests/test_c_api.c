@@ -416,6 +416,58 @@ static void test_loads(void) {
   mr_batch_destroy(b);
 }
 
+/* A cable clamped at both ends, its tip brought 0.4 m closer over 1 s. */
+static const char* kCableScene =
+    "[simulation]\n"
+    "dt = \"auto\"\n"
+    "duration = 1.5\n"
+    "output_interval = 0.05\n"
+    "gravity = [0.0, 0.0, -9.81]\n"
+    "[[rods]]\n"
+    "name = \"cable\"\n"
+    "elements = 40\n"
+    "length = 2.0\n"
+    "direction = [1.0, 0.0, 0.0]\n"
+    "normal = [0.0, 0.0, 1.0]\n"
+    "section = { shape = \"circle\", radius = 0.004 }\n"
+    "material = { density = 1400.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }\n"
+    "root = \"clamped\"\n"
+    "tip = { kind = \"clamped\", motion = \"ramp\", translation = [-0.4, 0.0, 0.0], duration = 1.0 }\n";
+
+/* The static equilibrium at t = 1 s: the clamps carry the weight, half
+ * each (to the solve's residual); a free rod is a mechanism (an input
+ * error naming the rod). */
+static void test_statics(void) {
+  mr_batch* b = NULL;
+  OK(mr_batch_create_from_scene(write_file("cable.toml", kCableScene), &b));
+  mr_static_result r;
+  OK(mr_batch_solve_static(b, 1.0, &r));
+  CHECK(r.converged == 1 && r.failed_rod == -1 && r.residual_force < 1e-9, "converged (residual %g N)",
+        r.residual_force);
+  CHECK(mr_batch_time(b) == 1.0, "the batch's time is the holds' (%g)", mr_batch_time(b));
+  size_t count = 0;
+  OK(mr_batch_hold_reactions(b, NULL, &count));
+  CHECK(count == 2, "two holds (%zu)", count);
+  mr_hold_reaction h[2];
+  size_t one = 1;
+  CHECK(mr_batch_hold_reactions(b, h, &one) == MR_ERROR_ARGUMENT && one == 2, "a short capacity is refused");
+  OK(mr_batch_hold_reactions(b, h, &count));
+  const double weight = 1400 * 3.141592653589793 * 0.004 * 0.004 * 2.0 * 9.81;
+  CHECK(h[0].node == 0 && h[1].node == 40 && h[0].clamped && h[1].clamped, "root and tip clamps");
+  CHECK(fabs(h[0].force[2] - weight / 2) < 1e-9 * weight && fabs(h[1].force[2] - weight / 2) < 1e-9 * weight,
+        "half the weight each (%g, %g of %g N)", h[0].force[2], h[1].force[2], weight);
+  mr_batch_destroy(b);
+  char free_rod[2048];
+  snprintf(free_rod, sizeof free_rod, "%s", kCableScene);
+  snprintf(strstr(free_rod, "root = "), 32, "root = \"free\"\n");  /* (the default root is clamped) */
+  OK(mr_batch_create_from_scene(write_file("free.toml", free_rod), &b));
+  const mr_status st = mr_batch_solve_static(b, NAN, &r);
+  CHECK(st == MR_ERROR_INPUT && r.mechanism == 1 && r.converged == 0,
+        "a free rod in gravity is a mechanism (status %d, converged %d, mechanism %d)", (int)st, r.converged, r.mechanism);
+  CHECK(strstr(mr_last_error(), "free to move under its loads") != NULL, "the message: %s", mr_last_error());
+  mr_batch_destroy(b);
+}
+
 int main(int argc, char** argv) {
   if (argc < 2) {
     fprintf(stderr, "usage: test_c_api WORK_DIR [MANYRODS_CLI]\n");
@@ -429,6 +481,7 @@ int main(int argc, char** argv) {
   test_scene(argc > 2 ? argv[2] : NULL);
   test_rods_in_c();
   test_loads();
+  test_statics();
   printf("test_c_api: %d checks passed\n", checks);
   return 0;
 }

@@ -1486,3 +1486,135 @@ TEST(Cli, PlotDrawsTheShapesOfACableClampedAtBothEnds) {
   EXPECT_GT(sag, 0) << "the middle should hang below the clamped ends (gravity along -z)";
   EXPECT_NEAR(sag, w, 0.05 * w);
 }
+
+namespace {
+
+// /holds of a `manyrods static` output: each dataset as doubles ([H] or [H, 3] flattened).
+std::vector<double> read_holds(const std::string& file, const std::string& name) {
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  EXPECT_GE(f, 0) << file;
+  if (f < 0) return {};
+  const hid_t d = H5Dopen2(f, ("holds/" + name).c_str(), H5P_DEFAULT);
+  EXPECT_GE(d, 0) << name;
+  std::vector<double> v;
+  if (d >= 0) {
+    const hid_t sp = H5Dget_space(d);
+    v.resize(std::size_t(H5Sget_simple_extent_npoints(sp)));
+    H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data());
+    H5Sclose(sp);
+    H5Dclose(d);
+  }
+  H5Fclose(f);
+  return v;
+}
+
+// Two heavy cables 2 m long, clamped at both ends, the tips brought 0.4 m
+// closer over the first second (a driven clamped tip), no damping.
+std::string hanging_cables(const std::string& extra = "") {
+  return "[simulation]\ndt = \"auto\"\nduration = 1.5\noutput_interval = 0.05\nprecision = \"double\"\n"
+         "gravity = [0.0, 0.0, -9.81]\n\n[[rods]]\nname = \"cable\"\ncount = 2\nelements = 40\nlength = 2.0\n"
+         "direction = [1.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n"
+         "placement = { kind = \"grid\", spacing = [0.1, 0.1], columns = 2, axes = [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] }\n"
+         "section = { shape = \"circle\", radius = 0.004 }\n"
+         "material = { density = 1400.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }\nroot = \"clamped\"\n"
+         "tip = { kind = \"clamped\", motion = \"ramp\", translation = [-0.4, 0.0, 0.0], duration = 1.0, profile = "
+         "\"smooth\" }\n" +
+         extra;
+}
+
+}  // namespace
+
+TEST(Cli, StaticWritesTheEquilibriumWithItsReactionsAndARunStartsFromIt) {
+  const std::string scene = write_scene("cables.toml", hanging_cables());
+  const std::string out = path("cables_static.h5");
+  Result r = cli("static " + scene + " -o " + out + " --at 1.0");
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_contains(r.err, "manyrods static: equilibrium at t = 1 s");
+  // one frame at t = 1 s, the reactions: each rod's two clamps
+  const h5::Reader rd(out);
+  ASSERT_EQ(rd.frames(), 1);
+  EXPECT_EQ(rd.output().time[0], 1.0);
+  const std::vector<double> rod = read_holds(out, "rod"), node = read_holds(out, "node"),
+                            force = read_holds(out, "force"), moment = read_holds(out, "moment");
+  ASSERT_EQ(rod.size(), 4u);
+  EXPECT_EQ(node, (std::vector<double>{0, 40, 0, 40}));
+  // Independent check: the clamps carry the cable's weight, half each
+  // (symmetric), to the solve's residual (|r| < 1e-9 N against 1.38 N).
+  const double weight = 1400 * std::numbers::pi * 0.004 * 0.004 * 2.0 * 9.81;
+  std::vector<double> x;
+  rd.read_positions(0, x);
+  for (int k = 0; k < 2; ++k) {
+    const double* root = &force[6 * k];
+    const double* tip = &force[6 * k + 3];
+    EXPECT_NEAR(root[2] + tip[2], weight, 1e-9 * weight);
+    EXPECT_NEAR(root[2], weight / 2, 1e-9 * weight);
+    EXPECT_NEAR(root[0] + tip[0], 0, 1e-9 * weight);  // the horizontal pulls cancel
+    EXPECT_LT(root[0], 0);                              // each clamp pulls its end outwards
+    EXPECT_NEAR(moment[6 * k + 1], -moment[6 * k + 4], 1e-9 * weight);
+    // the tip at its pose at t = 1 s: 1.6 m from the root
+    EXPECT_NEAR(x[3 * (41 * k + 40)] - x[3 * (41 * k)], 1.6, 1e-12);
+  }
+  // A run from the equilibrium (the tip's ramp has ended by then, so a run
+  // from t = 1 s is a run from rest): the step keeps it, to what its
+  // residual drives over 0.5 s (|r| ~ 1e-11 N on ~1e-3 kg nodes: < 1e-6 m).
+  const std::string cont = path("cables_cont.h5");
+  r = cli("run --restart " + out + " -o " + cont);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const h5::Reader rc(cont);
+  std::vector<double> x1;
+  rc.read_positions(rc.frames() - 1, x1);
+  ASSERT_EQ(x1.size(), x.size());
+  double drift = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) drift = std::max(drift, std::abs(x1[i] - x[i]));
+  std::printf("drift of the continued static state over 0.5 s: %.3e m\n", drift);
+  EXPECT_LT(drift, 1e-6);
+}
+
+TEST(Cli, RunFromStaticStartsAtRest) {
+  // A scene without motion started from its equilibrium stays there (the
+  // same bound as above); started from its built, straight state it falls.
+  const std::string text = hanging_cables();
+  std::string fixed = text.substr(0, text.find("tip = {")) + "tip = \"clamped\"\n";
+  const std::string scene = write_scene("fixed.toml", fixed);
+  Result r = cli("run " + scene + " -o " + path("fixed_static.h5") + " --from-static --duration 0.5");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const h5::Reader rd(path("fixed_static.h5"));
+  std::vector<double> x0, x1;
+  rd.read_positions(0, x0);
+  rd.read_positions(rd.frames() - 1, x1);
+  double drift = 0;
+  for (std::size_t i = 0; i < x0.size(); ++i) drift = std::max(drift, std::abs(x1[i] - x0[i]));
+  EXPECT_LT(drift, 1e-6);
+  EXPECT_LT(x0[3 * 20 + 2], -0.01);  // the midspan hangs (built straight at z = 0)
+  r = cli("run --restart " + path("fixed_static.h5") + " -o " + path("x.h5") + " --from-static");
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "--from-static starts a scene's run");
+}
+
+TEST(Cli, StaticRefusesWhatItCannotSolveAndWritesNothing) {
+  const std::string out = path("refused.h5");
+  std::ofstream(out) << "previous";
+  // a rod free to move under gravity: exit 2, the rod and node named
+  std::string free_rod = hanging_cables();
+  free_rod = free_rod.substr(0, free_rod.find("root = ")) + "root = \"free\"\n";
+  Result r = cli("static " + write_scene("free.toml", free_rod) + " -o " + out);
+  EXPECT_EQ(r.status, 2) << r.err;
+  expect_contains(r.err, "rod 0 (\"cable[0]\") of group \"cable\" (line 8): no static equilibrium: it is free to move");
+  expect_contains(r.err, "at node ");
+  // --at outside the scene's time, the scene as the output, contact, wind
+  r = cli("static " + write_scene("ok.toml", hanging_cables()) + " -o " + out + " --at 2");
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "--at 2.000000: after the scene's duration");
+  r = cli("static " + path("ok.toml") + " -o " + path("ok.toml"));
+  EXPECT_EQ(r.status, 2);
+  r = cli("static " + write_scene("floor.toml", hanging_cables("\n[[colliders]]\nkind = \"plane\"\npoint = [0.0, 0.0, -3.0]\nnormal = [0.0, 0.0, 1.0]\n")) +
+          " -o " + out);
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "the static solve takes no contact yet");
+  r = cli("static " + write_scene("wind.toml", hanging_cables("drag = { cd_normal = 1.2 }\n\n[fluid]\ndensity = 1.2\nvelocity = [0.0, 3.0, 0.0]\n")) +
+          " -o " + out);
+  EXPECT_EQ(r.status, 2);
+  expect_contains(r.err, "the static solve takes a fluid's buoyancy, not its wind");
+  EXPECT_EQ(slurp(out), "previous");
+  EXPECT_FALSE(fs::exists(out + ".tmp"));
+}

@@ -498,7 +498,10 @@ int command_static(const Options& o) {
     throw SceneError(s.source + ": --at " + std::to_string(o.at) + ": after the scene's duration (" +
                      std::to_string(s.sim.duration) + " s), the span its motions are given for");
   StaticResult r;
-  const AnyBatch b = static_equilibrium(s, o.at, &r);
+  AnyBatch b = static_equilibrium(s, o.at, &r);
+  // the step count of time --at, so that `run --restart` from this file
+  // ends at the scene's duration with its frames on the scene's grid
+  b.f64().state.steps = std::llround(o.at / b.scene_dt());
   const h5::Holds h = b.holds_record(r);
   b.save(o.output, &h);
   std::fprintf(stderr,

@@ -77,6 +77,8 @@ mr_status guard(F&& f) noexcept {
     return MR_OK;
   } catch (const manyrods::NonFiniteError& e) {
     return fail(MR_ERROR_NON_FINITE, e.what());
+  } catch (const manyrods::scene::StaticError& e) {
+    return fail(MR_ERROR_NO_EQUILIBRIUM, e.what());
   } catch (const InputError& e) {
     return fail(MR_ERROR_INPUT, e.what());
   } catch (const manyrods::scene::SceneError& e) {
@@ -317,6 +319,49 @@ mr_status mr_batch_energies(const mr_batch* b, int rod, mr_energies* out) {
 mr_status mr_batch_save(const mr_batch* b, const char* path) {
   MR_CHECK_ARG(b && path, "a NULL argument");
   return guard([&] { b->b.save(path); });
+}
+
+mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_result* result) {
+  MR_CHECK_ARG(b, "a NULL batch");
+  return guard([&] {
+    manyrods::StaticOptions opt;
+    opt.hold_time = time;
+    opt.threads = b->threads;
+    const manyrods::StaticResult r = b->b.solve_static(opt);
+    if (result) {
+      result->converged = r.converged;
+      result->iterations = r.iterations;
+      result->load_increments = r.load_increments;
+      result->residual_force = r.residual_force;
+      result->residual_couple = r.residual_couple;
+      result->failed_rod = r.failed_rod;
+      result->failed_node = r.failed_node;
+      result->load_reached = r.load_reached;
+      result->mechanism = r.mechanism;
+    }
+    if (r.mechanism) throw InputError(b->b.static_failure(r));
+    if (!r.converged) throw manyrods::scene::StaticError(b->b.static_failure(r));
+  });
+}
+
+mr_status mr_batch_hold_reactions(const mr_batch* b, mr_hold_reaction* out, size_t* count) {
+  MR_CHECK_ARG(b && count, "a NULL argument");
+  MR_CHECK_ARG(out || *count == 0, "out is NULL with a capacity > 0");
+  std::vector<manyrods::HoldReaction> h;
+  const mr_status st = guard([&] { h = b->b.hold_reactions(); });
+  if (st != MR_OK) return st;
+  const std::size_t capacity = *count;
+  *count = h.size();
+  if (out == nullptr) return MR_OK;
+  MR_CHECK_ARG(capacity >= h.size(), "capacity " + std::to_string(capacity) + " is short of the " +
+                                         std::to_string(h.size()) + " holds (count now says how many)");
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    out[i].rod = h[i].rod;
+    out[i].node = h[i].node;
+    out[i].clamped = h[i].clamped;
+    for (int a = 0; a < 3; ++a) out[i].force[a] = h[i].force[a], out[i].moment[a] = h[i].moment[a];
+  }
+  return MR_OK;
 }
 
 size_t mr_batch_rod_count(const mr_batch* b) { return b ? std::size_t(b->b.rod_count()) : 0; }

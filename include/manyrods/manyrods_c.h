@@ -54,7 +54,8 @@ typedef enum mr_status {
   MR_ERROR_IO = 3,          /* a file that cannot be read or written */
   MR_ERROR_NON_FINITE = 4,  /* the state became non-finite (a step too large); the batch keeps the bad state */
   MR_ERROR_MEMORY = 5,      /* out of memory */
-  MR_ERROR_INTERNAL = 6     /* anything else (a bug: please report the message) */
+  MR_ERROR_INTERNAL = 6,    /* anything else (a bug: please report the message) */
+  MR_ERROR_NO_EQUILIBRIUM = 7 /* mr_batch_solve_static found no equilibrium (Newton failed: a snap-through) */
 } mr_status;
 
 typedef enum mr_precision { MR_DOUBLE = 0, MR_FLOAT = 1 } mr_precision;
@@ -162,6 +163,41 @@ MR_API mr_status mr_batch_energies(const mr_batch* b, int rod, mr_energies* out)
 
 /* A manyrods output file with this state (`manyrods run --restart` continues a scene's). */
 MR_API mr_status mr_batch_save(const mr_batch* b, const char* path);
+
+/* ---- statics ---------------------------------------------------------------------- */
+
+typedef struct mr_static_result {
+  int converged;                           /* 1: the rods are in equilibrium */
+  int iterations, load_increments;         /* Newton iterations, load increments (all rods) */
+  double residual_force, residual_couple;  /* N, N m: the largest left on a free node / element */
+  int failed_rod, failed_node;             /* without equilibrium: the first such rod, its worst node (else -1) */
+  double load_reached;                     /* its load fraction reached */
+  int mechanism;                           /* 1: it is free to move under its loads */
+} mr_static_result;
+/* The static equilibrium of the batch's rods under its loads, gravity and
+ * buoyancy (a double-precision batch without contact or wind), every
+ * driven hold at its pose at `time` (s; NAN: the holds stay where they are),
+ * found by Newton's method along an adaptive load path from the current
+ * state; velocities become zero, and with a time the batch's time becomes it.
+ * `result` (may be NULL) is filled in every case. MR_ERROR_INPUT for a float
+ * batch, contact, wind, a bad time, and a rod that is a mechanism under its
+ * loads (a free rod in gravity); MR_ERROR_NO_EQUILIBRIUM when Newton finds
+ * none (the message names the rod, node and residual; the rods are left
+ * where the solve stopped). */
+MR_API mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_result* result);
+
+typedef struct mr_hold_reaction {
+  int rod, node;     /* the held node */
+  int clamped;       /* 1: a clamp (it exerts a moment too), 0: a pin */
+  double force[3];   /* N, lab frame: what the hold exerts on its rod */
+  double moment[3];  /* N m */
+} mr_hold_reaction;
+/* The reactions at every held node (rod by rod, root to tip), at rest: at
+ * a static equilibrium the connector loads, which balance the loads on
+ * each rod. *count: on entry the capacity of `out` (0 with out NULL: just
+ * count), on return the number of holds; MR_ERROR_ARGUMENT when the
+ * capacity is short. Double-precision batches. */
+MR_API mr_status mr_batch_hold_reactions(const mr_batch* b, mr_hold_reaction* out, size_t* count);
 
 /* ---- reading the state ----------------------------------------------------------- */
 

@@ -17,7 +17,9 @@ Rods built in code:
 
 Errors: invalid input raises ValueError with the library's message (a scene's
 `file:line:column: key:`); a state that stops being finite raises
-manyrods.NonFiniteError naming the rod, node or element, step and time.
+manyrods.NonFiniteError naming the rod, node or element, step and time; a
+static solve without equilibrium raises manyrods.StaticError (a
+RuntimeError) naming the rod, node and residual.
 docs/python.md has the whole interface.
 """
 
@@ -29,6 +31,7 @@ from ._core import (  # noqa: F401
     Rod,
     Scene,
     Section,
+    StaticError,
     ValidityError,
     __version__,
     load_scene,
@@ -44,6 +47,7 @@ __all__ = [
     "Rod",
     "Scene",
     "Section",
+    "StaticError",
     "ValidityError",
     "load_scene",
     "parse_scene",

@@ -327,22 +327,65 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
           "stiff rods) and the stiff rods' accuracy step ('accuracy', the one dt = \"auto\" takes for them)")
       .def(
           "solve_static",
-          [](PyBatch& p, int load_steps, double tolerance) {
+          [](PyBatch& p, int load_steps, double tolerance, std::optional<double> at, bool check) {
             manyrods::StaticOptions o;
             o.load_steps = load_steps;
             o.tolerance = tolerance;
+            if (at) o.hold_time = *at;
             manyrods::StaticResult r;
             {
               nb::gil_scoped_release release;
               r = p.b.solve_static(o);
             }
+            if (check && !r.converged) {
+              if (r.mechanism) throw manyrods::InputError(p.b.static_failure(r));
+              throw manyrods::scene::StaticError(p.b.static_failure(r));
+            }
             nb::dict d;
             d["converged"] = r.converged;
             d["iterations"] = r.iterations;
+            d["load_increments"] = r.load_increments;
             d["last_update"] = r.last_update;
+            d["residual_force"] = r.residual_force;
+            d["residual_couple"] = r.residual_couple;
+            d["failed_rod"] = r.failed_rod;
+            d["failed_node"] = r.failed_node;
+            d["load_reached"] = r.load_reached;
+            d["mechanism"] = r.mechanism;
+            d["message"] = p.b.static_failure(r);
             return d;
           },
-          "load_steps"_a = 10, "tolerance"_a = 1e-10, "Static equilibrium under the loads (double batches)");
+          "load_steps"_a = 10, "tolerance"_a = 1e-10, "at"_a = nb::none(), nb::kw_only(), "check"_a = true,
+          "Static equilibrium under the loads, gravity and buoyancy (double batches, no contact or wind), from the "
+          "current state along an adaptive load path; `at`: the time (s) whose poses the driven holds take (the "
+          "batch's time becomes it). Without an equilibrium: ValueError for a rod that is a mechanism under its "
+          "loads, manyrods.StaticError when Newton fails (the message names the rod, node and residual), or with "
+          "check=False the dict says so (converged, failed_rod, message). Returns iterations, load_increments, "
+          "residual_force (N), residual_couple (N m), ...")
+      .def(
+          "hold_reactions",
+          [](const PyBatch& p) {
+            const std::vector<manyrods::HoldReaction> h = p.b.hold_reactions();
+            const std::size_t n = h.size();
+            auto* fm = new double[6 * n + 1];
+            auto* ints = new std::int32_t[3 * n + 1];
+            for (std::size_t i = 0; i < n; ++i) {
+              ints[i] = h[i].rod, ints[n + i] = h[i].node, ints[2 * n + i] = h[i].clamped;
+              for (int a = 0; a < 3; ++a) fm[3 * i + a] = h[i].force[a], fm[3 * n + 3 * i + a] = h[i].moment[a];
+            }
+            nb::capsule own_f(fm, [](void* q) noexcept { delete[] static_cast<double*>(q); });
+            nb::capsule own_i(ints, [](void* q) noexcept { delete[] static_cast<std::int32_t*>(q); });
+            nb::dict d;
+            d["rod"] = nb::ndarray<nb::numpy, std::int32_t>(ints, {n}, own_i);
+            d["node"] = nb::ndarray<nb::numpy, std::int32_t>(ints + n, {n}, own_i);
+            d["clamped"] = nb::ndarray<nb::numpy, std::int32_t>(ints + 2 * n, {n}, own_i);
+            d["force"] = nb::ndarray<nb::numpy, double>(fm, {n, 3}, own_f);
+            d["moment"] = nb::ndarray<nb::numpy, double>(fm + 3 * n, {n, 3}, own_f);
+            return d;
+          },
+          "The reactions at the held nodes now (at rest), rod by rod, root to tip: rod, node, clamped (1 or 0), "
+          "force (H, 3) in N and moment (H, 3) in N m, lab frame, what each hold exerts on its rod (at a static "
+          "equilibrium: the connector loads). Double batches.");
 }
 
 // The state's hash and HDF5 file.
@@ -350,8 +393,17 @@ void bind_batch_output(nb::class_<PyBatch>& c) {
   c.def("state_hash", [](const PyBatch& p) { return p.b.state_hash(); },
         "FNV-1a hash of the state: equal hashes = bit-identical states")
       .def(
-          "save", [](const PyBatch& p, const std::string& path) { p.b.save(path); }, "path"_a,
-          "An HDF5 file (the run layout) with this state as its one frame and checkpoint");
+          "save",
+          [](const PyBatch& p, const std::string& path, bool holds) {
+            if (!holds) return p.b.save(path);
+            manyrods::h5::Holds h = p.b.holds_record(manyrods::StaticResult{});
+            h.residual_force = h.residual_couple = NAN;  // (not known here)
+            h.iterations = h.load_increments = 0;
+            p.b.save(path, &h);
+          },
+          "path"_a, nb::kw_only(), "holds"_a = false,
+          "An HDF5 file (the run layout) with this state as its one frame and checkpoint; holds=True adds the "
+          "reactions at the holds (/holds, as `manyrods static` writes; double batches)");
 }
 
 // ---- driver poses: rotation as a matrix, 9 numbers or a quaternion --------

@@ -14,6 +14,7 @@ namespace manyrods_python {
 void bind_errors(nb::module_& m) {
   static nb::exception<manyrods::NonFiniteError> non_finite(m, "NonFiniteError", PyExc_RuntimeError);
   static nb::exception<manyrods::scene::ValidityError> validity(m, "ValidityError", PyExc_RuntimeError);
+  static nb::exception<manyrods::scene::StaticError> no_equilibrium(m, "StaticError", PyExc_RuntimeError);
   nb::register_exception_translator([](const std::exception_ptr& p, void*) {
     try {
       std::rethrow_exception(p);

@@ -157,7 +157,23 @@ void bind_scene(nb::module_& m) {
             return new PyBatch{AnyBatch::from_scene(s, p), threads};
           },
           "precision"_a = nb::none(), "threads"_a = 1,
-          "The scene's batch (initial state applied), in its precision or the given one");
+          "The scene's batch (initial state applied), in its precision or the given one")
+      .def(
+          "solve_static",
+          [](const Scene& s, double at, int threads) {
+            if (threads < 1) throw manyrods::InputError("threads: must be >= 1");
+            manyrods::StaticResult r;
+            AnyBatch b = [&] {
+              nb::gil_scoped_release release;
+              return manyrods::scene::static_equilibrium(s, at, &r);
+            }();
+            return new PyBatch{std::move(b), threads};
+          },
+          "at"_a = 0.0, "threads"_a = 1,
+          "The scene's rods in static equilibrium (what `manyrods static` solves): a double-precision Batch at time "
+          "`at`, driven holds at their poses then; Batch.hold_reactions() gives the connector loads. ValueError for "
+          "what the static solve does not take (contact, wind) and a rod that is a mechanism under its loads; "
+          "manyrods.StaticError when Newton finds no equilibrium.");
   bind_scene_run(c);
   bind_scene_sweep(c);
 }

@@ -678,3 +678,65 @@ def test_read_output_of_a_run_with_contact_has_the_contact_records(tmp_path):
         assert len(v) == frames
     assert c["count"][0] == 0 and e["contact_work"][0] == 0
     assert c["count"][-1] > 0 and c["max_penetration"][-1] >= 0
+
+
+# ---- statics ----------------------------------------------------------------------------
+
+
+HANGING = textwrap.dedent("""\
+    [simulation]
+    dt = "auto"
+    duration = 1.5
+    output_interval = 0.05
+    precision = "double"
+    gravity = [0.0, 0.0, -9.81]
+
+    [[rods]]
+    name = "cable"
+    elements = 40
+    length = 2.0
+    direction = [1.0, 0.0, 0.0]
+    normal = [0.0, 0.0, 1.0]
+    section = { shape = "circle", radius = 0.004 }
+    material = { density = 1400.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }
+    root = "clamped"
+    tip = { kind = "clamped", motion = "ramp", translation = [-0.4, 0.0, 0.0], duration = 1.0 }
+    """)
+
+
+def test_a_scene_in_static_equilibrium_and_the_reactions_at_its_clamps(tmp_path):
+    # The clamps carry the cable's weight, half each (independent check, to
+    # the solve's residual); the tip is at its pose at t = 1 s; the batch's
+    # time is 1 s; a step from there keeps the cable where it is.
+    scene = manyrods.parse_scene(HANGING, "hanging.toml")
+    b = scene.solve_static(at=1.0)
+    assert b.time == 1.0
+    h = b.hold_reactions()
+    assert list(h["rod"]) == [0, 0] and list(h["node"]) == [0, 40] and list(h["clamped"]) == [1, 1]
+    weight = 1400 * math.pi * 0.004**2 * 2.0 * 9.81
+    assert h["force"].shape == (2, 3)
+    assert abs(h["force"][:, 2].sum() - weight) < 1e-9 * weight
+    assert abs(h["force"][0, 2] - weight / 2) < 1e-9 * weight
+    x = b.positions()
+    assert abs(x[40, 0] - x[0, 0] - 1.6) < 1e-12
+    b.advance(0.1)
+    assert np.abs(b.positions() - x).max() < 1e-6
+    b.save(str(tmp_path / "eq.h5"), holds=True)
+    assert (tmp_path / "eq.h5").stat().st_size > 0
+
+
+def test_static_solves_that_find_no_equilibrium_raise_naming_the_rod():
+    # A rod without holds in gravity is a mechanism under its load: ValueError
+    # from Scene.solve_static, Batch.solve_static, or a dict with check=False.
+    free = HANGING.replace('root = "clamped"\n', 'root = "free"\n').split("tip = ")[0]
+    scene = manyrods.parse_scene(free, "free.toml")
+    with pytest.raises(ValueError, match=r'rod 0 \("cable\[0\]"\) .*free to move under its loads'):
+        scene.solve_static()
+    b = scene.build_batch()
+    with pytest.raises(ValueError, match="free to move"):
+        b.solve_static()
+    r = b.solve_static(check=False)
+    assert not r["converged"] and r["mechanism"] and r["failed_rod"] == 0 and "free to move" in r["message"]
+    with pytest.raises(ValueError, match="needs a double-precision batch"):
+        manyrods.parse_scene(HANGING, "h.toml").build_batch(precision="float").solve_static()
+    assert issubclass(manyrods.StaticError, RuntimeError)

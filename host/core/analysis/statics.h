@@ -381,6 +381,49 @@ inline void residual_size(const RodDofs& d, const Eigen::VectorXd& r, int first_
   for (int i = nn; i < nn + int(d.elem_slots.size()); ++i) o.residual_couple = std::max(o.residual_couple, r.segment(3 * i, 3).norm());
 }
 
+// The Newton matrix's rows of the frames' turns about their own d3 get
+// 1e-6 of their diagonal added. Between two ends that leave the frames free
+// (pins, a free end) a rod of isotropic section can spin its frames about
+// their axes at no cost: J is singular along that motion, its LU's pivot
+// there is round-off, and the update it gives is round-off divided by
+// round-off, which the trust region then scales everything down by. The
+// term gives that motion a finite, small update; the residual, hence the
+// equilibrium, is unchanged, and modes with stiffness above ~1e-6 of the
+// diagonal converge as before (at most 1e-6 slower per iteration).
+inline void regularize_spin(BandedJacobian& J, int node_unknowns) {
+  constexpr int w = BandedJacobian::w;
+  for (int i = node_unknowns + 2; i < int(J.B.rows()); i += 3) {  // (unknown i: an element's turn about d3)
+    double& diag = J.B(J.pos[std::size_t(i)], w);
+    diag += 1e-6 * std::abs(diag);
+  }
+}
+
+// Whether J q = −r has no solution because J is singular and r has a part
+// outside J's range: the loads push along a motion that costs no energy.
+// J is scaled symmetrically by its diagonal first (D^-½ J D^-½: a rod
+// stiffened in shear and stretch has stiffnesses 1e10 apart, whose soft
+// modes would otherwise look singular), then a rank-revealing QR takes
+// pivots below 1e-8 of the largest as zero (the finite-difference
+// Jacobian's zero modes come out near 1e-10) and the least-squares
+// residual above 1e-6 of |r| as outside the range. zero_modes: the rank
+// deficiency.
+inline bool singular_against(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, int& zero_modes) {
+  Eigen::VectorXd s(J.rows());
+  for (int i = 0; i < J.rows(); ++i) s[i] = J(i, i) != 0 ? 1 / std::sqrt(std::abs(J(i, i))) : 1.0;
+  const Eigen::MatrixXd A = s.asDiagonal() * J * s.asDiagonal();
+  const Eigen::VectorXd rs = s.asDiagonal() * r;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+  qr.setThreshold(1e-8);
+  zero_modes = int(A.cols()) - int(qr.rank());
+  if (zero_modes == 0) return false;
+  const Eigen::VectorXd q = qr.solve(-rs);
+  return (A * q + rs).norm() > 1e-6 * rs.norm();
+}
+// The largest Newton problem (unknowns) whose failure is diagnosed with a
+// dense QR (singular_against; O(m³): 1,500 unknowns, a 250-element rod,
+// take about a second).
+inline constexpr int kDenseDiagnosis = 1500;
+
 // Rod `r` to static equilibrium (solve_static's method, one rod): Newton at
 // each load fraction λ, increments adapted (halved where Newton fails,
 // doubled up to 1/load_steps where it converges in a few iterations).
@@ -428,6 +471,7 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, &seg, lam);
       if (!r0.allFinite()) return false;
       banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, &seg, lam);
+      regularize_spin(J, nn);
       // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
       // by banded LU with partial pivoting (solve_banded); where J is
       // singular or nearly so the LU's solution does not solve the system,
@@ -438,14 +482,11 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       Eigen::VectorXd dq;
       if (!solve_banded(J, -r0, dq) || (J.times(dq) + r0).norm() > 1e-8 * (r0.norm() + J.B.norm() * dq.norm())) {
         const Eigen::MatrixXd A = J.dense();
-        Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
-        qr.setThreshold(1e-8);
-        dq = qr.solve(-r0);
-        out.zero_modes = m - int(qr.rank());
-        if (out.zero_modes > 0 && (A * dq + r0).norm() > 1e-6 * r0.norm()) {
+        if (singular_against(A, r0, out.zero_modes)) {
           out.mechanism = true;
           return false;
         }
+        dq = A.colPivHouseholderQr().solve(-r0);
       }
       if (!dq.allFinite()) return false;
       const double upd = std::max(nn > 0 ? dq.head(nn).cwiseAbs().maxCoeff() / length : 0.0,
@@ -465,6 +506,7 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
   };
   const double largest = 1.0 / std::max(1, opt.load_steps);
   double lam = 0, inc = largest;
+  int failures = 0;
   keep(true);
   while (lam < 1) {
     const double next = 1 - lam <= inc * (1 + 1e-9) ? 1.0 : lam + inc;
@@ -480,6 +522,15 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       continue;
     }
     keep(false);  // back to lam
+    // Is the rod a mechanism under its loads here? (The banded LU may
+    // "solve" a singular J through a pivot of round-off size; the dense
+    // rank-revealing QR says, at the first failure and at the last.)
+    if (!out.mechanism && (++failures == 1 || inc * 0.5 < opt.min_load_step) && m <= kDenseDiagnosis) {
+      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, &seg, next);
+      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, &seg, next);
+      out.mechanism = singular_against(J.dense(), r0, out.zero_modes);
+      keep(false);  // (the Jacobian's ±h steps leave round-off)
+    }
     place_holds(b, paths, lam);
     inc *= 0.5;
     if (out.mechanism || inc < opt.min_load_step) {
