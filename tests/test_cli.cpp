@@ -1607,10 +1607,10 @@ TEST(Cli, StaticRefusesWhatItCannotSolveAndWritesNothing) {
   expect_contains(r.err, "--at 2.000000: after the scene's duration");
   r = cli("static " + path("ok.toml") + " -o " + path("ok.toml"));
   EXPECT_EQ(r.status, 2);
-  r = cli("static " + write_scene("floor.toml", hanging_cables("\n[[colliders]]\nkind = \"plane\"\npoint = [0.0, 0.0, -3.0]\nnormal = [0.0, 0.0, 1.0]\n")) +
+  r = cli("static " + write_scene("bundle.toml", hanging_cables("\n[contact]\nrod_rod = true\n")) +
           " -o " + out);
   EXPECT_EQ(r.status, 2);
-  expect_contains(r.err, "the static solve takes no contact yet");
+  expect_contains(r.err, "the static solve takes colliders but no rod-rod or self contact yet");
   r = cli("static " + write_scene("wind.toml", hanging_cables("drag = { cd_normal = 1.2 }\n\n[fluid]\ndensity = 1.2\nvelocity = [0.0, 3.0, 0.0]\n")) +
           " -o " + out);
   EXPECT_EQ(r.status, 2);

@@ -211,8 +211,9 @@ template <class T>
 StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c);
 
 // solve_static<Terms>(b, opt) with the choice's Kelvin–Voigt and gravity
-// terms. InputError for what the static solve does not take: contact (a
-// choice with colliders or rod contact), a fluid's wind (its buoyancy
+// terms; colliders push frictionlessly (host/core/analysis/statics.h
+// collider_push). InputError for what the static solve does not take:
+// rod-rod and self contact, a fluid's wind (its buoyancy
 // counts; drag at rest in still fluid is zero), hold_time < 0 or not finite
 // when given.
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt = {});

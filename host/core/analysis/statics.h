@@ -19,6 +19,7 @@
 #include <cmath>
 #include <vector>
 
+#include "host/core/step/contact_stage.h"
 #include "host/core/step/diagnostics.h"
 #include "manyrods/statics.h"
 
@@ -39,9 +40,59 @@ struct RodDofs {
 // (a rod's kernel blocks, rod_blocks; the whole batch by default), so a
 // rod's residual costs its own slots, not the batch's; f and c receive the
 // generalized forces on seg's slots.
+// Where a residual is evaluated: the resultants over seg (a rod's blocks;
+// null: the whole batch), the external loads at load fraction lambda, and
+// the colliders placed (null or empty: none) pressing on rod `rod` (−1:
+// every rod).
+struct ResidualAt {
+  const Segment* seg = nullptr;
+  double lambda = 1;
+  const std::vector<ColliderFrame<double>>* colliders = nullptr;
+  int rod = -1;
+};
+
+// The colliders' frictionless push on rod r's nodes, added to f: each touch
+// (collider_touches) of an element with gap g < 0 pushes along its normal
+// n with p(g) = k g²/(2δ) for −δ < g < 0 and k (−g − δ/2) deeper (a
+// penalty, once differentiable at the surface so that Newton's Jacobian
+// does not jump where a contact starts), shared by the element's nodes as
+// (1 − s, s). k = the element's axial stiffness EA/ℓ; δ = 0.1 × the rod's
+// contact radius. A load F on a contact is carried at an overlap of
+// √(2δF/k) (while below kδ/2, far above the loads of rods at rest: a
+// micrometre for a 1 cm rod's weight on a floor); a narrower δ made
+// Newton stall on stiff rods (shear and stretch ×100) at the contacts'
+// onset. A static solve's contacts are frictionless.
+inline void collider_push(const RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& frames,
+                          std::array<Array<double>, 3>& f) {
+  const RodInfo& rod = b.rods[std::size_t(r)];
+  const double radius = rod.contact_radius, delta = 0.1 * radius;
+  const ConstStateView<double> s = b.state_view();
+  for (int e = 0; e < rod.elements; ++e) {
+    const int k = rod.offset + 1 + e;  // element k joins nodes k and k + 1
+    const double stiff = b.model.elem_stiffness[2][k] / b.model.elem_rest_length[k];
+    const vec3<double> x0 = load3(s.node_x, k), x1 = load3(s.node_x, k + 1);
+    for (const ColliderFrame<double>& col : frames) {
+      Touch<double> t[3];
+      const int count = collider_touches(col, x0, x1, radius, t);
+      for (int i = 0; i < count; ++i) {
+        const double g = t[i].gap;
+        if (!(g < 0)) continue;
+        const double p = g > -delta ? stiff * g * g / (2 * delta) : stiff * (-g - delta / 2);
+        for (int a = 0; a < 3; ++a) {
+          const double pa = p * (&t[i].n.x)[a];
+          f[a][k] += (1 - t[i].s) * pa;
+          f[a][k + 1] += t[i].s * pa;
+        }
+      }
+    }
+  }
+}
+
 template <Terms kT>
 Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
-                                std::array<Array<double>, 3>& c, const Segment* seg = nullptr, double lambda = 1) {
+                                std::array<Array<double>, 3>& c, const ResidualAt& at = {}) {
+  const Segment* seg = at.seg;
+  const double lambda = at.lambda;
   constexpr Terms kInternal = [] {
     Terms t = kT;
     t.kelvin_voigt = t.gravity = t.loads = t.colliders = t.rod_contact = false;
@@ -63,6 +114,9 @@ Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::arra
     f[0][k] = fk.x, f[1][k] = fk.y, f[2][k] = fk.z;
     c[0][k] = ck.x, c[1][k] = ck.y, c[2][k] = ck.z;
   }
+  if (at.colliders && !at.colliders->empty())
+    for (int rr = at.rod < 0 ? 0 : at.rod; rr < (at.rod < 0 ? b.rod_count() : at.rod + 1); ++rr)
+      collider_push(b, rr, *at.colliders, f);
   Eigen::VectorXd res(d.size());
   int i = 0;
   for (int k : d.node_slots)
@@ -126,7 +180,7 @@ constexpr int kReach = 2;
 template <Terms kT, class Store>
 void jacobian_entries(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
                       std::array<Array<double>, 3>& c, double length, double h_rel, bool grouped, Store&& store,
-                      const Segment* seg = nullptr, double lambda = 1) {
+                      const ResidualAt& at = {}) {
   constexpr int kBand = 2 * kReach + 1;
   const int m = d.size(), nn = 3 * int(d.node_slots.size());
   const int first = std::min(d.node_slots.empty() ? 1 << 30 : d.node_slots[0], d.elem_slots.empty() ? 1 << 30 : d.elem_slots[0]);
@@ -147,9 +201,9 @@ void jacobian_entries(RodBatch<double>& b, const RodDofs& d, std::array<Array<do
       for (int col : group) apply_dof(b, d, col, s * (col < nn ? h_rel * length : h_rel));
     };
     shift(1);
-    const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c, seg, lambda);
+    const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c, at);
     shift(-2);
-    const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c, seg, lambda);
+    const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c, at);
     shift(1);
     for (int col : group) {
       const double h = col < nn ? h_rel * length : h_rel;
@@ -216,7 +270,7 @@ struct BandedJacobian {
 template <Terms kT>
 void banded_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
                      std::array<Array<double>, 3>& c, double length, double h_rel, BandedJacobian& J,
-                     const Segment* seg = nullptr, double lambda = 1) {
+                     const ResidualAt& at = {}) {
   constexpr int w = BandedJacobian::w;
   J.B.setZero(d.size(), 3 * w + 1);
   jacobian_entries<kT>(
@@ -224,7 +278,7 @@ void banded_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<dou
       [&](int row, int col, double v) {
         J.B(J.pos[std::size_t(row)], J.pos[std::size_t(col)] - J.pos[std::size_t(row)] + w) = v;
       },
-      seg, lambda);
+      at);
 }
 
 // Solves J x = rhs by Gaussian elimination with partial pivoting within the
@@ -429,7 +483,7 @@ inline constexpr int kDenseDiagnosis = 1500;
 // doubled up to 1/load_steps where it converges in a few iterations).
 template <Terms kT>
 RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::array<Array<double>, 3>& f,
-                     std::array<Array<double>, 3>& c) {
+                     std::array<Array<double>, 3>& c, const std::vector<ColliderFrame<double>>* colliders) {
   RodOutcome out;
   const RodInfo& rod = b.rods[std::size_t(r)];
   const int n = rod.elements, o = rod.offset;
@@ -447,6 +501,7 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
     return out;
   }
   const Segment seg = rod_blocks(rod);
+  auto where = [&](double lam) { return ResidualAt{&seg, lam, colliders, r}; };
   BandedJacobian J;
   J.plan(d, o);  // (cells count from the rod's first slot)
   // the rod's state at the last load fraction reached (its slots o … o + n + 1)
@@ -468,9 +523,9 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
   auto newton = [&](double lam, int& iterations) {
     iterations = 0;
     for (int it = 0; it < opt.max_newton_iterations; ++it) {
-      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, &seg, lam);
+      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, where(lam));
       if (!r0.allFinite()) return false;
-      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, &seg, lam);
+      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(lam));
       regularize_spin(J, nn);
       // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
       // by banded LU with partial pivoting (solve_banded); where J is
@@ -526,8 +581,8 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
     // "solve" a singular J through a pivot of round-off size; the dense
     // rank-revealing QR says, at the first failure and at the last.)
     if (!out.mechanism && (++failures == 1 || inc * 0.5 < opt.min_load_step) && m <= kDenseDiagnosis) {
-      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, &seg, next);
-      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, &seg, next);
+      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, where(next));
+      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(next));
       out.mechanism = singular_against(J.dense(), r0, out.zero_modes);
       keep(false);  // (the Jacobian's ±h steps leave round-off)
     }
@@ -537,13 +592,23 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       out.ok = false;
       out.lambda = lam;
       place_holds(b, paths, std::min(1.0, lam + 2 * inc));
-      residual_size(d, static_residual<kT>(b, d, f, c, &seg, std::min(1.0, lam + 2 * inc)), o + 1, out);
+      residual_size(d, static_residual<kT>(b, d, f, c, where(std::min(1.0, lam + 2 * inc))), o + 1, out);
       place_holds(b, paths, lam);
       return out;
     }
   }
-  residual_size(d, static_residual<kT>(b, d, f, c, &seg, 1.0), o + 1, out);
+  residual_size(d, static_residual<kT>(b, d, f, c, where(1.0)), o + 1, out);
   return out;
+}
+
+// The batch's colliders placed at time t (NaN: the batch's time), for the
+// static residual (none when the batch has no contact).
+inline std::vector<ColliderFrame<double>> static_colliders(const RodBatch<double>& b, double t) {
+  std::vector<ColliderFrame<double>> frames;
+  if (!b.contact.on || b.contact.spec.colliders.empty()) return frames;
+  frames.resize(b.contact.spec.colliders.size());
+  place_colliders(b.contact, std::isfinite(t) ? t : b.state.time, 1.0, frames.data());
+  return frames;
 }
 
 // Rods in waves whose kernel blocks (rod_blocks) are disjoint: the rods of
@@ -570,9 +635,12 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   constexpr Terms kStatic = detail::kStaticTerms<kT>;
   std::array<Array<double>, 3> f, c;
   detail::at_rest(b, f, c);
+  const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, opt.hold_time);
   std::vector<detail::RodOutcome> outcome(std::size_t(b.rod_count()));
   for (const std::vector<int>& wave : detail::static_waves(b)) {
-    auto one = [&](std::size_t i) { outcome[std::size_t(wave[i])] = detail::solve_rod<kStatic>(b, wave[i], opt, f, c); };
+    auto one = [&](std::size_t i) {
+      outcome[std::size_t(wave[i])] = detail::solve_rod<kStatic>(b, wave[i], opt, f, c, &colliders);
+    };
     if (opt.threads == 1 || wave.size() < 2)
       for (std::size_t i = 0; i < wave.size(); ++i) one(i);
     else
@@ -609,7 +677,10 @@ std::vector<HoldReaction> hold_reactions(const RodBatch<double>& batch) {
   RodBatch<double> b = batch;
   std::array<Array<double>, 3> f, c;
   detail::at_rest(b, f, c);
-  (void)detail::static_residual<detail::kStaticTerms<kT>>(b, detail::RodDofs{}, f, c);  // (f, c on every slot)
+  const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, b.state.time);
+  detail::ResidualAt at;
+  at.colliders = &colliders;
+  (void)detail::static_residual<detail::kStaticTerms<kT>>(b, detail::RodDofs{}, f, c, at);  // (f, c on every slot)
   std::vector<HoldReaction> out;
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodInfo& rod = b.rods[std::size_t(r)];
