@@ -2,13 +2,19 @@
 //
 // Unknowns: the position of every free node and a rotation increment φ of
 // every element frame (Q ← exp(−[φ]×) Q, material components). Residual: the
-// generalized forces (host/core/step/diagnostics.h) at zero velocity (node forces,
-// element couples). Rods are independent, so each rod is solved on its own
-// with a Jacobian from central differences (6n × 6n, banded; n ≲ 1,000). Loads
-// (gravity, point forces and couples) are ramped in `load_steps` equal steps
-// so that large deflections are reached along the equilibrium path.
+// generalized forces at zero velocity (node forces, element couples): the
+// elastic terms plus λ × the external loads (gravity with the fluid's
+// buoyancy, point forces and couples), and the colliders' frictionless push
+// (collider_push). Rods are independent, so each rod is solved on its own
+// (rods whose kernel blocks do not overlap in parallel) with a banded
+// Jacobian from central differences. The loads, and driven holds walked to
+// their pose at the hold time, are ramped along the load path in adaptive
+// increments (halved where Newton fails, doubled where it converges fast),
+// so that large deflections are reached along the equilibrium path; a
+// failure is diagnosed as a mechanism (the loads push along a zero-stiffness
+// motion) or a Newton failure (docs/model.md "Static equilibrium").
 //
-// This is an analysis tool (statics for tests, initial states for demos), not
+// This is an analysis tool (statics, connector loads, initial states), not
 // part of the time step.
 #pragma once
 
