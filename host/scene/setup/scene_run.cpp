@@ -50,6 +50,25 @@ decltype(auto) with_terms(const StepChoice& c, F&& f, bool contact = true) {
   throw std::logic_error("with_terms: the library compiles no Terms for this choice");
 }
 
+// f.template operator()<kT>() with the choice's Terms less contact: the
+// Terms the library instantiates its analyses for (stable_dt, statics;
+// `false` alone would leave the contact instantiations referenced where the
+// compiler does not fold them away).
+template <class F>
+decltype(auto) without_contact(const StepChoice& c, F&& f) {
+  return with_terms(
+      c,
+      [&]<Terms kT>() {
+        constexpr Terms k = [] {
+          Terms t = kT;
+          t.colliders = t.rod_contact = false;
+          return t;
+        }();
+        return f.template operator()<k>();
+      },
+      false);
+}
+
 // Zeroes the stiffness of the terms a group switches off (see the header).
 template <class T>
 void apply_term_switches(RodBatch<T>& b, int rod, const TermSwitches& t) {
@@ -375,20 +394,8 @@ Energies scene_energies(const RodBatch<T>& b, const StepChoice& c, int rod) {
 
 template <class T>
 StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c) {
-  // contact does not limit it: the same Terms without contact (the ones the
-  // library instantiates stable_dt for; `false` alone leaves the contact
-  // instantiations referenced where the compiler does not fold it away)
-  return with_terms(
-      c,
-      [&]<Terms kT>() {
-        constexpr Terms k = [] {
-          Terms t = kT;
-          t.colliders = t.rod_contact = false;
-          return t;
-        }();
-        return stable_dt<k>(b);
-      },
-      false);
+  // contact does not limit it: the same Terms without contact
+  return without_contact(c, [&]<Terms k>() { return stable_dt<k>(b); });
 }
 
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt) {
@@ -404,31 +411,11 @@ StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const 
       throw InputError("solve_static: the static solve takes a fluid's buoyancy, not its wind (drag on rods at rest "
                        "in a moving fluid): set the fluid's velocity and turbulence to zero, or run the dynamics");
   }
-  return with_terms(
-      c,
-      [&]<Terms kT>() {
-        constexpr Terms k = [] {  // (as in scene_stable_dt)
-          Terms t = kT;
-          t.colliders = t.rod_contact = false;
-          return t;
-        }();
-        return solve_static<k>(b, opt);
-      },
-      false);
+  return without_contact(c, [&]<Terms k>() { return solve_static<k>(b, opt); });
 }
 
 std::vector<HoldReaction> scene_hold_reactions(const RodBatch<double>& b, const StepChoice& c) {
-  return with_terms(
-      c,
-      [&]<Terms kT>() {
-        constexpr Terms k = [] {
-          Terms t = kT;
-          t.colliders = t.rod_contact = false;
-          return t;
-        }();
-        return hold_reactions<k>(b);
-      },
-      false);
+  return without_contact(c, [&]<Terms k>() { return hold_reactions<k>(b); });
 }
 
 std::string static_failure(const StaticResult& r, const RodBatch<double>& b, const Scene* s) {
