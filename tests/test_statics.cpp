@@ -635,3 +635,42 @@ TEST(Statics, ACantileverOnAFloorTouchesDownWhereBeamTheorySays) {
     EXPECT_GT(std::log2(e60[i] / e120[i]), 1.5);
   }
 }
+
+TEST(Statics, ARodSolvedBeforeWalksOnlyItsMovedHoldsInOneIncrement) {
+  // A heavy cable clamped at both ends, its tip lowered on a ramp (the
+  // cable drawn taut: one equilibrium); solved at t = 0.5 (cold: the loads
+  // ramped from 0), then at t = 0.51 after its tip moved 2 mm (warm: in
+  // equilibrium under its full loads, so only the tip walks, in one
+  // increment). The warm solve reaches the equilibrium a
+  // cold solve at t = 0.51 reaches, to the Newton tolerance's effect on
+  // positions (1e-10 L, a hundred times asserted: two solves' round-off
+  // floors); a self-consistency check of the warm start.
+  auto cable = [] {
+    RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, 1.0, 40);
+    s.section = Section::circle(0.004);
+    s.material = {1400, 5e7, 0.45};
+    s.clamped_root = s.clamped_tip = true;
+    auto ramp = std::make_shared<RampMotion>();
+    ramp->translation = {0, 0, -0.2};
+    ramp->duration = 1;
+    s.tip_motion = ramp;
+    return build_batch<double>({s}, {0, 0, -9.81});
+  };
+  StaticOptions opt;
+  auto warm = cable();
+  opt.hold_time = 0.5;
+  const StaticResult first = solve_static(warm, opt);
+  ASSERT_TRUE(first.converged);
+  EXPECT_EQ(first.warm_rods, 0);
+  EXPECT_GE(first.load_increments, 10);
+  opt.hold_time = 0.51;
+  const StaticResult again = solve_static(warm, opt);
+  ASSERT_TRUE(again.converged);
+  EXPECT_EQ(again.warm_rods, 1);
+  EXPECT_EQ(again.load_increments, 1);
+  auto cold = cable();
+  ASSERT_TRUE(solve_static(cold, opt).converged);
+  std::printf("warm re-solve: %d Newton iterations (the first solve %d)\n", again.iterations, first.iterations);
+  for (int j = 0; j <= 40; ++j)
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(warm.position(0, j)[a], cold.position(0, j)[a], 1e-8);
+}

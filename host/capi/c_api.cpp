@@ -338,6 +338,7 @@ mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_result* resu
       result->failed_node = r.failed_node;
       result->load_reached = r.load_reached;
       result->mechanism = r.mechanism;
+      result->warm_rods = r.warm_rods;
     }
     if (r.mechanism) throw InputError(b->b.static_failure(r));
     if (!r.converged) throw manyrods::scene::StaticError(b->b.static_failure(r));

@@ -173,6 +173,8 @@ typedef struct mr_static_result {
   int failed_rod, failed_node;             /* without equilibrium: the first such rod, its worst node (else -1) */
   double load_reached;                     /* its load fraction reached */
   int mechanism;                           /* 1: it is free to move under its loads */
+  int warm_rods;                           /* rods already in equilibrium under their loads (a re-solve after a
+                                              hold moved): only their holds walked */
 } mr_static_result;
 /* The static equilibrium of the batch's rods under its loads, gravity and
  * buoyancy (a double-precision batch without contact or wind), every

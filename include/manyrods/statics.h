@@ -33,6 +33,10 @@ struct StaticResult {
   bool converged = true;
   int iterations = 0;       // total Newton iterations
   int load_increments = 0;  // load increments taken, all rods
+  // rods that started in equilibrium under their full loads (a warm start:
+  // a solve before this one, the holds moved since): only their holds
+  // walked, the whole way in one increment where Newton allows
+  int warm_rods = 0;
   double last_update = 0;   // the largest last Newton update of a rod
   // What is left out of balance: the largest |force| on a free node (N)
   // and |couple| on a free element (N·m), at the full load when converged,
@@ -53,7 +57,10 @@ struct StaticResult {
 // Solves for static equilibrium under the batch's current loads and gravity
 // (and the buoyancy of a fluid), starting from the current state, rod by
 // rod; loads (and driven holds, with opt.hold_time) are ramped along the
-// load path in adaptive increments. Velocities are set to zero. Rods
+// load path in adaptive increments. A rod already in equilibrium under its
+// full loads (solved before, its holds moved since: an interactive drag)
+// keeps them and walks only its holds, in one increment where Newton
+// allows (a warm start). Velocities are set to zero. Rods
 // without an equilibrium are left at the last load fraction reached
 // (StaticResult says which). The Kelvin–Voigt term is ignored (no
 // motion); kT selects the elastic terms and gravity.

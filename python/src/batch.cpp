@@ -345,6 +345,7 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
             d["converged"] = r.converged;
             d["iterations"] = r.iterations;
             d["load_increments"] = r.load_increments;
+            d["warm_rods"] = r.warm_rods;
             d["last_update"] = r.last_update;
             d["residual_force"] = r.residual_force;
             d["residual_couple"] = r.residual_couple;

@@ -427,6 +427,7 @@ struct RodOutcome {
   double residual_force = 0, residual_couple = 0;
   int worst_node = -1, zero_modes = 0;
   bool mechanism = false;
+  bool warm = false;  // started in equilibrium under the full loads
 };
 
 // The largest |force| on a free node and |couple| on a free element of the
@@ -507,7 +508,36 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
     return out;
   }
   const Segment seg = rod_blocks(rod);
-  auto where = [&](double lam) { return ResidualAt{&seg, lam, colliders, r}; };
+  // Warm: the rod is already in equilibrium under its full loads (a solve
+  // before this one; its holds may have moved since): the loads stay full
+  // and only the holds walk, the whole way in the first increment. Told by
+  // the residual at full load, with the holds where they are: its forces
+  // below 1e-6 of the largest force on a node of the rod (held ones
+  // included: they carry the reactions) or of an external one, and its
+  // couples likewise against the couples on the rod's elements.
+  bool warm = false;
+  {
+    const ResidualAt full{&seg, 1.0, colliders, r};
+    const Eigen::VectorXd r1 = static_residual<kT>(b, d, f, c, full);
+    double scale[2] = {0, 0}, left[2] = {0, 0};  // forces, couples
+    auto size3 = [](const std::array<Array<double>, 3>& v, int k) {
+      return std::sqrt(v[0][k] * v[0][k] + v[1][k] * v[1][k] + v[2][k] * v[2][k]);
+    };
+    for (int k = o; k < o + n + 2; ++k) scale[0] = std::max(scale[0], size3(f, k)), scale[1] = std::max(scale[1], size3(c, k));
+    (void)static_residual<kT>(b, d, f, c, ResidualAt{&seg, 0.0, colliders, r});  // (the internal part)
+    const int nodes = int(d.node_slots.size());
+    for (int i = 0; i < d.size() / 3; ++i) {
+      const int k = i < nodes ? d.node_slots[std::size_t(i)] : d.elem_slots[std::size_t(i - nodes)];
+      const std::array<Array<double>, 3>& internal = i < nodes ? f : c;
+      const Eigen::Vector3d all = r1.segment(3 * i, 3);
+      const Eigen::Vector3d ext = all - Eigen::Vector3d(internal[0][k], internal[1][k], internal[2][k]);
+      scale[i < nodes ? 0 : 1] = std::max(scale[i < nodes ? 0 : 1], ext.norm());
+      left[i < nodes ? 0 : 1] = std::max(left[i < nodes ? 0 : 1], all.norm());
+    }
+    warm = left[0] <= 1e-6 * scale[0] && left[1] <= 1e-6 * scale[1];
+  }
+  out.warm = warm;
+  auto where = [&](double lam) { return ResidualAt{&seg, warm ? 1.0 : lam, colliders, r}; };
   BandedJacobian J;
   J.plan(d, o);  // (cells count from the rod's first slot)
   // the rod's state at the last load fraction reached (its slots o … o + n + 1)
@@ -565,7 +595,7 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
     }
     return false;
   };
-  const double largest = 1.0 / std::max(1, opt.load_steps);
+  const double largest = warm ? 1.0 : 1.0 / std::max(1, opt.load_steps);
   double lam = 0, inc = largest;
   int failures = 0;
   keep(true);
@@ -657,6 +687,7 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
     const detail::RodOutcome& o = outcome[std::size_t(r)];
     res.iterations += o.iterations;
     res.load_increments += o.increments;
+    res.warm_rods += o.warm;
     res.last_update = std::max(res.last_update, o.last_update);
     if (res.converged) {
       res.residual_force = std::max(res.residual_force, o.residual_force);
