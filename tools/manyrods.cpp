@@ -502,7 +502,7 @@ int command_static(const Options& o) {
   // the step count of time --at, so that `run --restart` from this file
   // ends at the scene's duration with its frames on the scene's grid
   b.f64().state.steps = std::llround(o.at / b.scene_dt());
-  const h5::Holds h = b.holds_record(r);
+  const h5::Holds h = b.holds_record(&r);
   b.save(o.output, &h);
   std::fprintf(stderr,
                "manyrods static: equilibrium at t = %.6g s after %d Newton iterations in %d load increments, residual "

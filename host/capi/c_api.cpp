@@ -340,8 +340,7 @@ mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_result* resu
       result->mechanism = r.mechanism;
       result->warm_rods = r.warm_rods;
     }
-    if (r.mechanism) throw InputError(b->b.static_failure(r));
-    if (!r.converged) throw manyrods::scene::StaticError(b->b.static_failure(r));
+    b->b.check_static(r);
   });
 }
 

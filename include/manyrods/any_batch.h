@@ -84,6 +84,10 @@ class AnyBatch {
   // stopped; static_failure says why in words.
   StaticResult solve_static(const StaticOptions& opt = {});
   std::string static_failure(const StaticResult& r) const;
+  // Nothing for a converged result; otherwise throws, in static_failure's
+  // words, InputError for a rod that is a mechanism under its loads (bad
+  // input) and StaticError when Newton found no equilibrium.
+  void check_static(const StaticResult& r) const;
   // What each hold exerts on its rod now (scene_hold_reactions; double batches).
   std::vector<HoldReaction> hold_reactions() const;
   std::uint64_t state_hash() const;
@@ -118,8 +122,8 @@ class AnyBatch {
   // include/manyrods/h5io.h Holds).
   void save(const std::string& path, const h5::Holds* holds = nullptr) const;
   // The reactions of hold_reactions() and a static solve's result as the
-  // file's /holds and /static.
-  h5::Holds holds_record(const StaticResult& r) const;
+  // file's /holds and /static (r null: the residuals NaN, the counts 0).
+  h5::Holds holds_record(const StaticResult* r = nullptr) const;
 
  private:
   AnyBatch() = default;

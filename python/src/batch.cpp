@@ -337,10 +337,7 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
               nb::gil_scoped_release release;
               r = p.b.solve_static(o);
             }
-            if (check && !r.converged) {
-              if (r.mechanism) throw manyrods::InputError(p.b.static_failure(r));
-              throw manyrods::scene::StaticError(p.b.static_failure(r));
-            }
+            if (check) p.b.check_static(r);
             nb::dict d;
             d["converged"] = r.converged;
             d["iterations"] = r.iterations;
@@ -397,9 +394,7 @@ void bind_batch_output(nb::class_<PyBatch>& c) {
           "save",
           [](const PyBatch& p, const std::string& path, bool holds) {
             if (!holds) return p.b.save(path);
-            manyrods::h5::Holds h = p.b.holds_record(manyrods::StaticResult{});
-            h.residual_force = h.residual_couple = NAN;  // (not known here)
-            h.iterations = h.load_increments = 0;
+            const manyrods::h5::Holds h = p.b.holds_record();  // (the residuals are not known here)
             p.b.save(path, &h);
           },
           "path"_a, nb::kw_only(), "holds"_a = false,

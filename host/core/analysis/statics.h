@@ -39,13 +39,6 @@ struct RodDofs {
   int size() const { return 3 * int(node_slots.size() + elem_slots.size()); }
 };
 
-// The residual of the unknowns d at load fraction `lambda`: the internal
-// forces and couples (the elastic terms of kT) plus lambda times the
-// external ones (gravity, the displaced fluid's buoyancy with it, point
-// forces and couples), at rest. The resultants are computed over `seg`
-// (a rod's kernel blocks, rod_blocks; the whole batch by default), so a
-// rod's residual costs its own slots, not the batch's; f and c receive the
-// generalized forces on seg's slots.
 // Where a residual is evaluated: the resultants over seg (a rod's blocks;
 // null: the whole batch), the external loads at load fraction lambda, and
 // the colliders placed (null or empty: none) pressing on rod `rod` (−1:
@@ -94,6 +87,14 @@ inline void collider_push(const RodBatch<double>& b, int r, const std::vector<Co
   }
 }
 
+// The residual of the unknowns d at load fraction at.lambda: the internal
+// forces and couples (the elastic terms of kT) plus lambda times the
+// external ones (gravity, the displaced fluid's buoyancy with it, point
+// forces and couples), at rest, plus the colliders' push (collider_push).
+// The resultants are computed over at.seg (a rod's kernel blocks,
+// rod_blocks; the whole batch by default), so a rod's residual costs its
+// own slots, not the batch's; f and c receive the generalized forces on
+// those slots.
 template <Terms kT>
 Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
                                 std::array<Array<double>, 3>& c, const ResidualAt& at = {}) {
@@ -353,10 +354,6 @@ inline void at_rest(RodBatch<double>& b, std::array<Array<double>, 3>& f, std::a
     c[a].resize(b.slots(), 0.0);
   }
 }
-
-}  // namespace detail
-
-namespace detail {
 
 // A rod's slots [o, o + n + 2) rounded out to whole kernel blocks (kGuard
 // slots, the unit launch_with_fallback runs in): the range its residual

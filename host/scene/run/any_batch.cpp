@@ -193,12 +193,18 @@ std::string AnyBatch::static_failure(const StaticResult& r) const {
   return scene::static_failure(r, f64(), scene_.get());
 }
 
+void AnyBatch::check_static(const StaticResult& r) const {
+  if (r.converged) return;
+  if (r.mechanism) throw InputError(static_failure(r));
+  throw StaticError(static_failure(r));
+}
+
 std::vector<HoldReaction> AnyBatch::hold_reactions() const {
   if (float32()) throw InputError("hold_reactions: needs a double-precision batch (precision = \"double\")");
   return scene_hold_reactions(f64(), choice_);
 }
 
-h5::Holds AnyBatch::holds_record(const StaticResult& r) const {
+h5::Holds AnyBatch::holds_record(const StaticResult* r) const {
   h5::Holds h;
   for (const HoldReaction& x : hold_reactions()) {
     h.rod.push_back(x.rod);
@@ -208,10 +214,10 @@ h5::Holds AnyBatch::holds_record(const StaticResult& r) const {
     h.moment.insert(h.moment.end(), x.moment.begin(), x.moment.end());
   }
   h.time = time();
-  h.residual_force = r.residual_force;
-  h.residual_couple = r.residual_couple;
-  h.iterations = r.iterations;
-  h.load_increments = r.load_increments;
+  h.residual_force = r ? r->residual_force : NAN;
+  h.residual_couple = r ? r->residual_couple : NAN;
+  h.iterations = r ? r->iterations : 0;
+  h.load_increments = r ? r->load_increments : 0;
   return h;
 }
 
@@ -288,13 +294,11 @@ AnyBatch static_equilibrium(const Scene& s, double at, StaticResult* result, con
   StaticResult r;
   try {
     r = b.solve_static(opt);
+    b.check_static(r);
   } catch (const InputError& e) {
     throw SceneError(s.source + ": " + e.what());
-  }
-  if (!r.converged) {
-    const std::string why = s.source + ": " + b.static_failure(r);
-    if (r.mechanism) throw SceneError(why);
-    throw StaticError(why);
+  } catch (const StaticError& e) {
+    throw StaticError(s.source + ": " + e.what());
   }
   if (result) *result = r;
   return b;
