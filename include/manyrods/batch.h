@@ -96,6 +96,12 @@ struct RodSpec {
   // Rest shape. Empty = the given geometry is the rest shape (unstressed).
   std::vector<Vec3> rest_curvature;   // [n−1] U0 at interior Voronoi points, 1/m
   std::vector<Vec3> rest_strain;      // [n] V0, rest lengths are the given ones
+  // Gravity preload: the rest shape (from the two above, or the geometry)
+  // is then changed so that the rod as given is its static equilibrium
+  // under gravity, its loads and the colliders it rests on
+  // (include/manyrods/statics.h preload_rest_shape, which the scene layer,
+  // AnyBatch::from_rods and Python call when the batch is built).
+  bool preload = false;
   // Initial motion. Empty = at rest.
   std::vector<Vec3> velocities;          // [n+1] m/s
   std::vector<Vec3> angular_velocities;  // [n] rad/s, material components
@@ -179,6 +185,7 @@ struct RodInfo {
   bool clamped_root = false;
   bool clamped_tip = false;
   bool stiff_implicit = false;  // RodSpec::stiff_implicit
+  bool preload = false;         // RodSpec::preload
   bool damped = false;          // some retardation time > 0
   bool driven = false;          // some hold on a motion (entries of RodBatch::driven)
   // held unknowns with prescribed, possibly non-zero, velocities besides the

@@ -101,4 +101,37 @@ extern template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigt>(const R
 extern template std::vector<HoldReaction> hold_reactions<kNoGravity>(const RodBatch<double>&);
 extern template std::vector<HoldReaction> hold_reactions<kNoKelvinVoigtNoGravity>(const RodBatch<double>&);
 
+// Gravity preload (docs/model.md "Gravity preload"): the rest strains V0
+// and curvatures U0 of the rods with RodSpec::preload solved so that their
+// shape now (as built or imported) is their static equilibrium under the
+// batch's gravity (with a fluid's buoyancy), dead loads and the colliders
+// they rest on, at rest: simulated, they stay where they are. A rod with a
+// free tip has one such rest shape (the internal forces summed from the
+// tip); with more holds, the one of least complementary energy (Menabrea:
+// the preload stress a linear analysis of the structure built in this
+// shape gives). Colliders push (frictionless) on the touches within one
+// contact radius of their surface, as much as they can. Rod–rod contact
+// carries nothing. Where a rod has no such rest shape (a free rod in
+// gravity) its rest shape is left as it was and PreloadResult says which;
+// velocities are kept. Double-precision batches; kT selects the elastic
+// terms and gravity.
+struct PreloadResult {
+  bool ok = true;
+  int rods = 0;      // rods preloaded
+  int contacts = 0;  // collider touches that carry load
+  // The largest force (N) and couple (N·m) left out of balance at the
+  // rods' new rest shapes (round-off when ok); when not ok, the first rod
+  // without one and its node with the largest force left.
+  double residual_force = 0, residual_couple = 0;
+  int failed_rod = -1, failed_node = -1;
+};
+
+template <Terms kT = kAllTerms>
+PreloadResult preload_rest_shape(RodBatch<double>& b, int threads = 0);
+
+extern template PreloadResult preload_rest_shape<kAllTerms>(RodBatch<double>&, int);
+extern template PreloadResult preload_rest_shape<kNoKelvinVoigt>(RodBatch<double>&, int);
+extern template PreloadResult preload_rest_shape<kNoGravity>(RodBatch<double>&, int);
+extern template PreloadResult preload_rest_shape<kNoKelvinVoigtNoGravity>(RodBatch<double>&, int);
+
 }  // namespace manyrods

@@ -458,6 +458,7 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
   info.clamped_root = s.clamped_root;
   info.clamped_tip = s.clamped_tip;
   info.stiff_implicit = s.stiff_implicit;
+  info.preload = s.preload;
   info.drag = s.drag;
   int held = int(s.holds.size()) + (s.clamped_root || s.pinned_root) + (s.clamped_tip || s.pinned_tip);
   int driven = (s.root_motion != nullptr) + (s.tip_motion != nullptr);

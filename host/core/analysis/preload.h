@@ -1,0 +1,333 @@
+// host/core/analysis/preload.h — gravity preload: the rest shape that makes
+// the rods as built their own static equilibrium (include/manyrods/statics.h
+// preload_rest_shape; docs/model.md "Gravity preload").
+//
+// Equations. At rest the residual of statics.h, r(x, Q; p) — the node
+// forces and element couples on the free unknowns — is affine in the rest
+// strains p = (V0 of each element, U0 of each joint): the internal force is
+// C_F(σ − V0) and the moment C_M(κ − U0) (each over its dilatation), and
+// everything else at fixed x, Q is constant. The preload keeps x, Q as built
+// and changes p by Δp so that
+//
+//     r(x, Q; p + Δp) + C λ = 0,   λ ≥ 0,
+//
+// where C λ are the normal forces of the colliders on the touches within
+// one contact radius of their surface (frictionless; each touch's force
+// shared by its element's nodes as (1 − s, s), as statics.h collider_push
+// places it). J = ∂r/∂p is exact from one-sided differences (r is affine)
+// and sparse (a rest strain reaches the cells beside its own), grouped as
+// statics.h does: 18 residuals per rod.
+//
+// A rod with a free tip is statically determinate: J is square and Δp is
+// the unique inverse (the internal force and moment summed from the tip).
+// With more holds (both ends, interior nodes) J has more columns than rows
+// and Δp is the one of least complementary energy
+//
+//     ½ Σ_elements l̂ ΔV0ᵀ C_F ΔV0 + ½ Σ_joints D̂ ΔU0ᵀ C_M ΔU0,
+//
+// which is what Menabrea's theorem picks for the redundant reactions of a
+// linear structure built in this shape: the preload stress of a clamped–
+// clamped beam is the beam theory's (tests/test_preload.cpp). The contact
+// forces cost nothing: where a collider can carry the load it does.
+//
+// Solve: the saddle-point system of min ½|q|² s.t. A q + C λ = b with
+// q = W^½ Δp (W = the energy's weights), rows scaled to unit norm, by
+// sparse LU; touches whose λ comes out negative are dropped and it is
+// solved again. The result is checked: the residual at the new rest shape
+// must vanish to round-off, else the rod has no rest shape in which it
+// stands as built (a free rod in gravity, a node that no strain reaches).
+#pragma once
+
+#include <Eigen/Sparse>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "host/core/analysis/statics.h"
+
+namespace manyrods {
+
+namespace detail {
+
+// One rest parameter: a component of an element's V0 or a joint's U0.
+struct RestParam {
+  int slot = 0;
+  int comp = 0;
+  bool joint = false;
+  double weight = 0;  // l̂ C_F or D̂ C_M: its complementary energy's weight
+  double& value(RodBatch<double>& b) const {
+    return joint ? b.model.vor_rest_curvature[comp][slot] : b.model.elem_rest_strain[comp][slot];
+  }
+};
+
+// A touch of a collider that may carry load: a unit force along n at the
+// element's nodes k and k + 1, shared as (1 − s, s).
+struct PreloadTouch {
+  int node = 0;  // slot of the element's first node
+  double s = 0;
+  Eigen::Vector3d n;
+};
+
+struct PreloadOutcome {
+  bool ok = true;
+  int contacts = 0;  // touches carrying load
+  int worst_node = -1;
+  double residual_force = 0, residual_couple = 0;
+};
+
+template <Terms kT>
+PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& colliders,
+                           std::array<Array<double>, 3>& f, std::array<Array<double>, 3>& c) {
+  PreloadOutcome out;
+  const RodInfo& rod = b.rods[std::size_t(r)];
+  const int n = rod.elements, o = rod.offset;
+  RodDofs d;
+  for (int j = 0; j <= n; ++j)
+    if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
+  for (int e = 0; e < n; ++e)
+    if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
+  const int m = d.size(), nn = 3 * int(d.node_slots.size());
+  if (m == 0) return out;  // every unknown held: nothing to balance
+
+  std::vector<RestParam> params;
+  for (int k = o; k <= o + n + 1; ++k)
+    for (int a = 0; a < 3; ++a) {
+      if (k > o && k <= o + n && b.model.elem_stiffness[a][k] != 0)
+        params.push_back({k, a, false, b.model.elem_rest_length[k] * b.model.elem_stiffness[a][k]});
+      if (b.model.vor_stiffness[a][k] != 0)
+        params.push_back({k, a, true, b.model.vor_rest_length[k] * b.model.vor_stiffness[a][k]});
+    }
+  const int np = int(params.size());
+  const Segment seg = rod_blocks(rod);
+  const ResidualAt at{&seg, 1.0, nullptr, r};
+  const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, at);
+
+  // the rows (residual entries) of each slot: a node's force, an element's couple
+  std::vector<std::vector<int>> rows_of(static_cast<std::size_t>(n + 2));
+  for (int i = 0; i < m; ++i) {
+    const int slot = i < nn ? d.node_slots[std::size_t(i / 3)] : d.elem_slots[std::size_t((i - nn) / 3)];
+    rows_of[std::size_t(slot - o)].push_back(i);
+  }
+  // ∂r/∂p: V0 of element k reaches the forces on nodes k, k + 1 and the
+  // couple on element k; U0 of joint k the couples on elements k − 1, k:
+  // the cells k − 1 … k + 1, so parameters 3 slots apart share a residual.
+  std::vector<Eigen::Triplet<double>> jt;
+  for (int g = 0; g < 18; ++g) {
+    const bool joint = g >= 9;
+    const int comp = (g % 9) / 3, phase = g % 3;
+    std::vector<int> group;
+    for (int p = 0; p < np; ++p) {
+      const RestParam& q = params[std::size_t(p)];
+      if (q.joint == joint && q.comp == comp && (q.slot - o) % 3 == phase) group.push_back(p);
+    }
+    if (group.empty()) continue;
+    std::vector<double> h(group.size());
+    std::vector<double> old(group.size());
+    for (std::size_t i = 0; i < group.size(); ++i) {
+      const RestParam& q = params[std::size_t(group[i])];
+      h[i] = joint ? 1e-3 / b.model.vor_rest_length[q.slot] : 1e-3;
+      old[i] = q.value(b);
+      q.value(b) = old[i] + h[i];
+    }
+    const Eigen::VectorXd r1 = static_residual<kT>(b, d, f, c, at);
+    for (std::size_t i = 0; i < group.size(); ++i) {
+      const RestParam& q = params[std::size_t(group[i])];
+      q.value(b) = old[i];
+      for (int cell = std::max(0, q.slot - o - 1); cell <= std::min(n + 1, q.slot - o + 1); ++cell)
+        for (const int row : rows_of[std::size_t(cell)]) {
+          const double v = (r1[row] - r0[row]) / h[i];
+          if (v != 0) jt.emplace_back(row, group[i], v);
+        }
+    }
+  }
+
+  // the touches near a collider (gap within one contact radius)
+  std::vector<PreloadTouch> touches;
+  const ConstStateView<double> sv = std::as_const(b).state_view();
+  for (int e = 0; e < n; ++e) {
+    const int k = o + 1 + e;
+    if (b.model.node_inv_mass[k] == 0 && b.model.node_inv_mass[k + 1] == 0) continue;
+    const vec3<double> x0 = load3(sv.node_x, k), x1 = load3(sv.node_x, k + 1);
+    for (const ColliderFrame<double>& col : colliders) {
+      Touch<double> t[3];
+      const int count = collider_touches(col, x0, x1, rod.contact_radius, t);
+      for (int i = 0; i < count; ++i) {
+        if (!(t[i].gap <= rod.contact_radius)) continue;
+        // a touch at an end of the element is a node's: the element beside
+        // it finds it too (a plane's); one column per node and normal, else
+        // the two would make the system singular
+        PreloadTouch pt{k, t[i].s, {t[i].n.x, t[i].n.y, t[i].n.z}};
+        if (pt.s == 1) pt.node = k + 1, pt.s = 0;
+        const bool seen = pt.s == 0 && std::any_of(touches.begin(), touches.end(), [&](const PreloadTouch& u) {
+                            return u.node == pt.node && u.s == 0 && (u.n - pt.n).norm() < 1e-12;
+                          });
+        if (!seen) touches.push_back(pt);
+      }
+    }
+  }
+  std::vector<int> node_row(static_cast<std::size_t>(n + 2), -1);  // a free node's first row, by slot − o
+  for (int i = 0; i < nn; i += 3) node_row[std::size_t(d.node_slots[std::size_t(i / 3)] - o)] = i;
+
+  // scaled: q = W^½ Δp, rows of [J W^-½ | C] to unit norm, C's columns too
+  Eigen::SparseMatrix<double> J(m, np);
+  J.setFromTriplets(jt.begin(), jt.end());
+  Eigen::VectorXd wq(np);
+  for (int p = 0; p < np; ++p) wq[p] = 1 / std::sqrt(params[std::size_t(p)].weight);
+  const Eigen::SparseMatrix<double> A0 = J * wq.asDiagonal();
+  const int nt = int(touches.size());
+  Eigen::MatrixXd Cd = Eigen::MatrixXd::Zero(m, nt);  // (m × touches: a few per rod)
+  for (int t = 0; t < nt; ++t)
+    for (int side = 0; side < 2; ++side) {
+      const int row = node_row[std::size_t(touches[std::size_t(t)].node + side - o)];
+      if (row >= 0) Cd.block(row, t, 3, 1) += (side ? touches[std::size_t(t)].s : 1 - touches[std::size_t(t)].s) * touches[std::size_t(t)].n;
+    }
+  std::vector<char> active(static_cast<std::size_t>(nt), 1);
+  for (int t = 0; t < nt; ++t) active[std::size_t(t)] = Cd.col(t).norm() > 0;  // (a touch on held nodes only)
+  Eigen::VectorXd rs = Eigen::VectorXd::Zero(m);
+  for (int k = 0; k < A0.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(A0, k); it; ++it) rs[it.row()] += it.value() * it.value();
+  for (int i = 0; i < m; ++i) {
+    rs[i] += Cd.row(i).squaredNorm();
+    rs[i] = rs[i] > 0 ? 1 / std::sqrt(rs[i]) : 1.0;
+  }
+  const Eigen::SparseMatrix<double> A = rs.asDiagonal() * A0;
+  const Eigen::MatrixXd C = rs.asDiagonal() * Cd;
+  Eigen::VectorXd cs(nt);
+  for (int t = 0; t < nt; ++t) cs[t] = C.col(t).norm() > 0 ? 1 / C.col(t).norm() : 1.0;
+  const Eigen::VectorXd rhs = -(rs.asDiagonal() * r0);
+
+  // KKT of min ½|q|² s.t. A q + C λ = b: [I 0 Aᵀ; 0 0 Cᵀ; A C 0] [q; λ; −y] = [0; 0; b],
+  // over the active touches (λ ≥ 0: a touch that would pull is dropped)
+  Eigen::VectorXd q, lambda = Eigen::VectorXd::Zero(nt);
+  bool solved = false;
+  for (int pass = 0; pass <= nt; ++pass) {
+    std::vector<int> live;
+    for (int t = 0; t < nt; ++t)
+      if (active[std::size_t(t)]) live.push_back(t);
+    const int na = int(live.size()), size = np + na + m;
+    std::vector<Eigen::Triplet<double>> kt;
+    for (int p = 0; p < np; ++p) kt.emplace_back(p, p, 1.0);
+    for (int k = 0; k < A.outerSize(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(A, k); it; ++it) {
+        kt.emplace_back(np + na + int(it.row()), int(it.col()), it.value());
+        kt.emplace_back(int(it.col()), np + na + int(it.row()), it.value());
+      }
+    for (int i = 0; i < na; ++i)
+      for (int row = 0; row < m; ++row) {
+        const double v = C(row, live[std::size_t(i)]) * cs[live[std::size_t(i)]];
+        if (v == 0) continue;
+        kt.emplace_back(np + na + row, np + i, v);
+        kt.emplace_back(np + i, np + na + row, v);
+      }
+    Eigen::SparseMatrix<double> K(size, size);
+    K.setFromTriplets(kt.begin(), kt.end());
+    Eigen::VectorXd bk = Eigen::VectorXd::Zero(size);
+    bk.tail(m) = rhs;
+    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
+    lu.compute(K);
+    if (lu.info() != Eigen::Success) break;
+    const Eigen::VectorXd z = lu.solve(bk);
+    if (lu.info() != Eigen::Success || !z.allFinite()) break;
+    q = z.head(np);
+    lambda.setZero();
+    double largest = 0;
+    for (int i = 0; i < na; ++i) largest = std::max(largest, std::abs(z[np + i]));
+    bool dropped = false;
+    for (int i = 0; i < na; ++i) {
+      const int t = live[std::size_t(i)];
+      lambda[t] = z[np + i] * cs[t];
+      if (z[np + i] < -1e-12 * largest) active[std::size_t(t)] = 0, dropped = true, lambda[t] = 0;
+    }
+    if (!dropped) {
+      solved = true;
+      break;
+    }
+  }
+
+  // apply, then check the balance: r + C λ = 0 to round-off
+  std::vector<double> before(static_cast<std::size_t>(np));
+  for (int p = 0; p < np; ++p) before[std::size_t(p)] = params[std::size_t(p)].value(b);
+  if (solved)
+    for (int p = 0; p < np; ++p) params[std::size_t(p)].value(b) += wq[p] * q[p];
+  const Eigen::VectorXd r1 = static_residual<kT>(b, d, f, c, at) + Cd * lambda;
+  // What balances: the largest load or internal force on a node before
+  // (a couple's: that times the rod's longest element), to 1e-8; and the
+  // round-off of the internal forces, C_F (σ − V0) with σ ≈ e3: a thousand
+  // ε C_F (a couple's: that times the longest element, and ε C_M |U0|/D̂).
+  const double g = std::sqrt(b.model.gravity[0] * b.model.gravity[0] + b.model.gravity[1] * b.model.gravity[1] +
+                             b.model.gravity[2] * b.model.gravity[2]);
+  double scale[2] = {0, 0}, longest = 0, stiffest[2] = {0, 0};
+  for (int i = 0; i < m / 3; ++i) scale[i < nn / 3 ? 0 : 1] = std::max(scale[i < nn / 3 ? 0 : 1], r0.segment(3 * i, 3).norm());
+  for (int k = o; k < o + n + 2; ++k) {
+    const Eigen::Vector3d ext(b.loads.node_force[0][k], b.loads.node_force[1][k], b.loads.node_force[2][k]);
+    scale[0] = std::max(scale[0], ext.norm() + b.model.node_mass[k] * g);
+    if (k > o && k <= o + n) longest = std::max(longest, b.model.elem_rest_length[k]);
+    for (int a = 0; a < 3; ++a) {
+      stiffest[0] = std::max(stiffest[0], b.model.elem_stiffness[a][k]);
+      const double u = b.model.vor_rest_length[k] > 0 ? std::abs(b.model.vor_rest_curvature[a][k]) + 1 / b.model.vor_rest_length[k] : 0;
+      stiffest[1] = std::max(stiffest[1], b.model.vor_stiffness[a][k] * u);
+    }
+  }
+  constexpr double kRoundOff = 1e3 * std::numeric_limits<double>::epsilon();
+  const double tol_force = 1e-8 * scale[0] + kRoundOff * stiffest[0];
+  const double tol_couple = 1e-8 * std::max(scale[1], scale[0] * longest) + kRoundOff * (stiffest[0] * longest + stiffest[1]);
+  RodOutcome size;
+  residual_size(d, r1, o + 1, size);
+  out.residual_force = size.residual_force;
+  out.residual_couple = size.residual_couple;
+  out.worst_node = size.worst_node;
+  for (int t = 0; t < nt; ++t) out.contacts += lambda[t] > 0;
+  out.ok = solved && r1.allFinite() && out.residual_force <= tol_force && out.residual_couple <= tol_couple;
+  if (!out.ok)
+    for (int p = 0; p < np; ++p) params[std::size_t(p)].value(b) = before[std::size_t(p)];
+  return out;
+}
+
+}  // namespace detail
+
+// preload_rest_shape (include/manyrods/statics.h).
+template <Terms kT>
+PreloadResult preload_rest_shape(RodBatch<double>& b, int threads) {
+  constexpr Terms kStatic = detail::kStaticTerms<kT>;
+  PreloadResult res;
+  bool any = false;
+  for (const RodInfo& r : b.rods) any = any || r.preload;
+  if (!any) return res;
+  // the shape as built, at rest; the colliders where they are
+  std::array<Array<double>, 3> f, c;
+  const auto node_v = b.state.node_v;  // (the residual is at rest; the state's velocities are kept)
+  const auto elem_w = b.state.elem_w;
+  detail::at_rest(b, f, c);
+  const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, b.state.time);
+  std::vector<detail::PreloadOutcome> outcome(std::size_t(b.rod_count()));
+  for (const std::vector<int>& wave : detail::static_waves(b)) {
+    std::vector<int> todo;
+    for (int r : wave)
+      if (b.rods[std::size_t(r)].preload) todo.push_back(r);
+    auto one = [&](std::size_t i) { outcome[std::size_t(todo[i])] = detail::preload_rod<kStatic>(b, todo[i], colliders, f, c); };
+    if (threads == 1 || todo.size() < 2)
+      for (std::size_t i = 0; i < todo.size(); ++i) one(i);
+    else
+      parallel_tasks(todo.size(), one);
+  }
+  b.state.node_v = node_v;
+  b.state.elem_w = elem_w;
+  for (int r = 0; r < b.rod_count(); ++r) {
+    if (!b.rods[std::size_t(r)].preload) continue;
+    const detail::PreloadOutcome& o = outcome[std::size_t(r)];
+    ++res.rods;
+    res.contacts += o.contacts;
+    res.residual_force = std::max(res.residual_force, o.residual_force);
+    res.residual_couple = std::max(res.residual_couple, o.residual_couple);
+    if (o.ok || !res.ok) continue;
+    res.ok = false;
+    res.failed_rod = r;
+    res.failed_node = o.worst_node;
+    res.residual_force = o.residual_force;
+    res.residual_couple = o.residual_couple;
+  }
+  return res;
+}
+
+}  // namespace manyrods
