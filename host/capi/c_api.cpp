@@ -161,6 +161,7 @@ RodSpec rod_of(const mr_rod_desc& d, std::size_t i) {
   if (r.root_motion && d.root == MR_END_FREE) throw InputError(at + "root_driver needs a held root (clamped or pinned)");
   if (r.tip_motion && d.tip == MR_END_FREE) throw InputError(at + "tip_driver needs a held tip (clamped or pinned)");
   r.stiff_implicit = d.stiff != 0;
+  r.preload = d.preload != 0;
   return r;
 }
 
@@ -341,6 +342,15 @@ mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_result* resu
       result->warm_rods = r.warm_rods;
     }
     b->b.check_static(r);
+  });
+}
+
+mr_status mr_batch_preload(mr_batch* b, int* rods, int* contacts) {
+  MR_CHECK_ARG(b, "a NULL batch");
+  return guard([&] {
+    const manyrods::PreloadResult r = b->b.preload();
+    if (rods) *rods = r.rods;
+    if (contacts) *contacts = r.contacts;
   });
 }
 

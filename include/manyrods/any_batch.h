@@ -88,6 +88,14 @@ class AnyBatch {
   // words, InputError for a rod that is a mechanism under its loads (bad
   // input) and StaticError when Newton found no equilibrium.
   void check_static(const StaticResult& r) const;
+  // Gravity preload again (scene_preload): the rest shapes of the rods with
+  // preload (RodSpec::preload, a group's preload = true; the batch's build
+  // solved them for the rods as built) solved so that the rods as they are
+  // now stand in equilibrium under the loads as they are now (set loads
+  // first). Solved in double precision (a float batch's state is copied
+  // into a double one). InputError in preload_failure's words for a rod
+  // with no such rest shape (its rest shape left as it was).
+  PreloadResult preload();
   // What each hold exerts on its rod now (scene_hold_reactions; double batches).
   std::vector<HoldReaction> hold_reactions() const;
   std::uint64_t state_hash() const;

@@ -111,6 +111,8 @@ typedef struct mr_rod_desc {
   const char* root_driver;
   const char* tip_driver;
   int stiff;              /* 1: stiff rod (hair, wire; docs/model.md "Stiff rods") */
+  int preload;            /* 1: gravity preload: the rest shape solved so that the rod as given stands still
+                             under gravity (mr_batch_preload again after setting loads; docs/model.md) */
 } mr_rod_desc;
 
 typedef struct mr_batch_settings {
@@ -187,6 +189,14 @@ typedef struct mr_static_result {
  * none (the message names the rod, node and residual; the rods are left
  * where the solve stopped). */
 MR_API mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_result* result);
+
+/* Gravity preload again: the rest shapes of the rods with `preload` solved
+ * so that the rods as they are now stand still under gravity and the loads
+ * as they are now (mr_batch_create did it for the rods as given). `rods`,
+ * `contacts` (may be NULL): the rods preloaded and the collider touches that
+ * carry load. MR_ERROR_INPUT naming the rod and node where no rest shape
+ * does (a free rod in gravity); its rest shape is left as it was. */
+MR_API mr_status mr_batch_preload(mr_batch* b, int* rods, int* contacts);
 
 typedef struct mr_hold_reaction {
   int rod, node;     /* the held node */

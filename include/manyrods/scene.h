@@ -217,6 +217,12 @@ StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c);
 // counts; drag at rest in still fluid is zero), hold_time < 0 or not finite
 // when given.
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt = {});
+// preload_rest_shape<Terms>(b) with the choice's terms (include/manyrods/statics.h:
+// the rest shapes of the rods with RodSpec::preload, so that they stand as
+// built; build_scene_batch calls it for groups with preload = true).
+PreloadResult scene_preload(RodBatch<double>& b, const StepChoice& c);
+// A preload without a rest shape, in words (the rod as static_failure names it).
+std::string preload_failure(const PreloadResult& r, const RodBatch<double>& b, const Scene* s = nullptr);
 // hold_reactions<Terms>(b) with the choice's terms.
 std::vector<HoldReaction> scene_hold_reactions(const RodBatch<double>& b, const StepChoice& c);
 // A static solve that found no equilibrium, in words: the rod (its name,

@@ -361,6 +361,25 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
           "check=False the dict says so (converged, failed_rod, message). Returns iterations, load_increments, "
           "residual_force (N), residual_couple (N m), ...")
       .def(
+          "preload",
+          [](PyBatch& p) {
+            manyrods::PreloadResult r;
+            {
+              nb::gil_scoped_release release;
+              r = p.b.preload();
+            }
+            nb::dict d;
+            d["rods"] = r.rods;
+            d["contacts"] = r.contacts;
+            d["residual_force"] = r.residual_force;
+            d["residual_couple"] = r.residual_couple;
+            return d;
+          },
+          "Gravity preload again: the rest shapes of the rods with preload solved so that the rods as they are now "
+          "stand still under gravity and the loads as they are now (the batch's build did it for the rods as "
+          "built). ValueError naming the rod and node where no rest shape does (a free rod in gravity). Returns "
+          "rods, contacts (collider touches carrying load), residual_force (N), residual_couple (N m)")
+      .def(
           "hold_reactions",
           [](const PyBatch& p) {
             const std::vector<manyrods::HoldReaction> h = p.b.hold_reactions();

@@ -282,6 +282,9 @@ void bind_rod_fields(nb::class_<RodSpec>& c) {
       .def_rw("material", &RodSpec::material)
       .def_rw("damping", &RodSpec::damping)
       .def_rw("stiff", &RodSpec::stiff_implicit)
+      .def_rw("preload", &RodSpec::preload,
+              "gravity preload: the rest shape is solved so that the rod as given is its static equilibrium under "
+              "gravity (and the batch's loads: Batch.preload() again after setting them)")
       .def_rw("shear_stretch_scale", &RodSpec::shear_stretch_scale)
       .def_prop_rw(
           "root", [](const RodSpec& r) { return hold_of(r, true); },

@@ -188,6 +188,34 @@ StaticResult AnyBatch::solve_static(const StaticOptions& opt) {
   return r;
 }
 
+PreloadResult AnyBatch::preload() {
+  if (!float32()) {
+    const PreloadResult r = scene_preload(f64(), choice_);
+    if (!r.ok) throw InputError(preload_failure(r, f64(), scene_.get()));
+    return r;
+  }
+  // in double: the scene's batch with this state and these loads
+  RodBatch<float>& b = f32();
+  RodBatch<double> d = build_scene_batch<double>(*scene_, false);
+  for (int k = 0; k < b.slots(); ++k) {
+    for (int a = 0; a < 3; ++a) {
+      d.state.node_x[a][k] = double(b.state.node_x[a][k]) + double(b.state.node_xc[a][k]);
+      d.loads.node_force[a][k] = b.loads.node_force[a][k];
+      d.loads.elem_couple[a][k] = b.loads.elem_couple[a][k];
+    }
+    for (int i = 0; i < 9; ++i) d.state.elem_Q[i][k] = b.state.elem_Q[i][k];
+  }
+  d.state.time = b.state.time;
+  const PreloadResult r = scene_preload(d, choice_);
+  if (!r.ok) throw InputError(preload_failure(r, d, scene_.get()));
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < b.slots(); ++k) {
+      b.model.elem_rest_strain[a][k] = float(d.model.elem_rest_strain[a][k]);
+      b.model.vor_rest_curvature[a][k] = float(d.model.vor_rest_curvature[a][k]);
+    }
+  return r;
+}
+
 std::string AnyBatch::static_failure(const StaticResult& r) const {
   if (float32()) return "";
   return scene::static_failure(r, f64(), scene_.get());

@@ -1065,7 +1065,7 @@ struct Pending {
   double length;
   int elements;
   Vec3 u0;
-  bool curved, stiff = false;
+  bool curved, stiff = false, preload = false;
   std::optional<HoldKind> root_hold, tip_hold;  // nullopt: free
   std::shared_ptr<const RootMotion> tip_motion;
   std::vector<NodeHold> holds;  // [[rods.constraints]]
@@ -1251,6 +1251,9 @@ Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const
   p.drag = parse_drag(g);
   p.scale = g.has("shear_stretch_scale") ? g.positive("shear_stretch_scale") : 1.0;
   p.stiff = g.boolean("stiff", false);
+  p.preload = g.boolean("preload", false);
+  if (p.preload && p.g.has_initial_tip_force)
+    g.fail("preload", "takes the rods as built as the equilibrium; initial_tip_force moves them from it: give one of the two");
   if (g.has("friction")) {
     p.g.has_friction = true;
     p.g.friction = parse_friction(g);
@@ -1302,6 +1305,7 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
     r.holds = p.holds;
     r.drag = p.drag;
     r.stiff_implicit = p.stiff;
+    r.preload = p.preload;
     sc.rods.push_back(std::move(r));
     sc.rod_group.push_back(int(gi));
   }
@@ -1337,7 +1341,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::v
                   {"name", "count", "elements", "length", "start", "direction", "normal", "placement",
                    "section", "material", "damping", "rest_curvature", "root", "tip", "tip_force",
                    "initial_tip_force", "terms", "shear_stretch_scale", "stiff", "friction", "constraints",
-                   "drag", "from_curves"});
+                   "drag", "from_curves", "preload"});
     Pending p = parse_group(g, gt, gi, sc.sim);
     slots += p.curves.empty() ? std::int64_t(p.g.count) * (p.elements + 2) : p.curve_slots;
     elements += p.curves.empty() ? std::int64_t(p.g.count) * p.elements : p.curve_element_total;

@@ -11,6 +11,7 @@
 #include <unordered_map>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 #include "manyrods/stable_dt.h"
 #include "manyrods/statics.h"
@@ -316,6 +317,26 @@ void copy_static_states(const std::vector<Solved>& solved, const std::vector<std
   }
 }
 
+// The rest shapes of the groups with preload = true (scene_preload),
+// solved in double precision on the rods as built: a float batch takes
+// them from the scene's batch built in double. SceneError naming the rod,
+// its group and line where none exists.
+template <class T>
+void give_preload(const Scene& s, const StepChoice& choice, RodBatch<T>& b) {
+  if (std::none_of(b.rods.begin(), b.rods.end(), [](const RodInfo& r) { return r.preload; })) return;
+  if constexpr (std::is_same_v<T, double>) {
+    const PreloadResult r = scene_preload(b, choice);
+    if (!r.ok) throw SceneError(s.source + ": " + preload_failure(r, b, &s));
+  } else {
+    const RodBatch<double> d = build_scene_batch<double>(s, false);
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < b.slots(); ++k) {
+        b.model.elem_rest_strain[a][k] = T(d.model.elem_rest_strain[a][k]);
+        b.model.vor_rest_curvature[a][k] = T(d.model.vor_rest_curvature[a][k]);
+      }
+  }
+}
+
 }  // namespace
 
 template <class T>
@@ -337,6 +358,7 @@ RodBatch<T> build_scene_batch(const Scene& s, bool initial_state, StaticCache* c
     copy_static_states(solve_statics(s, keys, cache), keys.rod_key, b);
   }
   give_contact(s, choice, b);
+  give_preload(s, choice, b);
   return b;
 }
 
@@ -398,6 +420,23 @@ StableDt scene_stable_dt(const RodBatch<T>& b, const StepChoice& c) {
   return without_contact(c, [&]<Terms k>() { return stable_dt<k>(b); });
 }
 
+namespace {
+
+// "rod 3 ("hair[3]") of group "hair" (line 12)": a rod in words.
+std::string rod_words(const RodBatch<double>& b, int rod, const Scene* s) {
+  std::ostringstream os;
+  os << "rod " << rod;
+  const std::string& name = b.rods[std::size_t(rod)].name;
+  if (!name.empty()) os << " (\"" << name << "\")";
+  if (s && rod < int(s->rod_group.size())) {
+    const RodGroup& g = s->groups[std::size_t(s->rod_group[std::size_t(rod)])];
+    os << " of group \"" << g.name << "\" (line " << g.line << ")";
+  }
+  return os.str();
+}
+
+}  // namespace
+
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt) {
   if (c.rod_contact)
     throw InputError("solve_static: the static solve takes colliders but no rod-rod or self contact yet: run the "
@@ -414,6 +453,21 @@ StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const 
   return without_contact(c, [&]<Terms k>() { return solve_static<k>(b, opt); });
 }
 
+PreloadResult scene_preload(RodBatch<double>& b, const StepChoice& c) {
+  return without_contact(c, [&]<Terms k>() { return preload_rest_shape<k>(b); });
+}
+
+std::string preload_failure(const PreloadResult& r, const RodBatch<double>& b, const Scene* s) {
+  if (r.ok) return "";
+  std::ostringstream os;
+  os.precision(4);
+  os << rod_words(b, r.failed_rod, s) << ": preload: no rest shape makes the rod as built its static equilibrium "
+     << "(a force of " << r.residual_force << " N at node " << r.failed_node
+     << " is left that no strain of the rod carries): the loads move it as a whole (a free rod in gravity, a "
+        "pendulum off its vertical); hold it (a clamped root), or set preload = false";
+  return os.str();
+}
+
 std::vector<HoldReaction> scene_hold_reactions(const RodBatch<double>& b, const StepChoice& c) {
   return without_contact(c, [&]<Terms k>() { return hold_reactions<k>(b); });
 }
@@ -422,15 +476,7 @@ std::string static_failure(const StaticResult& r, const RodBatch<double>& b, con
   if (r.converged) return "";
   std::ostringstream os;
   os.precision(4);
-  const int rod = r.failed_rod;
-  os << "rod " << rod;
-  const std::string& name = b.rods[std::size_t(rod)].name;
-  if (!name.empty()) os << " (\"" << name << "\")";
-  if (s && rod < int(s->rod_group.size())) {
-    const RodGroup& g = s->groups[std::size_t(s->rod_group[std::size_t(rod)])];
-    os << " of group \"" << g.name << "\" (line " << g.line << ")";
-  }
-  os << ": no static equilibrium: ";
+  os << rod_words(b, r.failed_rod, s) << ": no static equilibrium: ";
   if (r.mechanism)
     os << "it is free to move under its loads (" << r.zero_modes
        << " motion(s) of zero stiffness along which the loads push, at load fraction " << r.load_reached
