@@ -491,6 +491,9 @@ TEST(SceneErrors, InconsistentOrMissing) {
                {"bad.toml:9:", "rods.0.damping:", "bulk"});
   expect_error(head + sec + mat + "root = \"free\"\ninitial_tip_force = [1.0, 0.0, 0.0]\n",
                {"bad.toml:10:", "rods.0.initial_tip_force: needs root = \"clamped\""});
+  expect_error(head + sec + mat + "preload = true\ninitial_tip_force = [1.0, 0.0, 0.0]\n",
+               {"bad.toml:", "rods.0.preload: takes the rods as built as the equilibrium"});
+  expect_error(head + sec + mat + "preload = 1\n", {"bad.toml:9:", "rods.0.preload"});
   // TOML syntax
   expect_error("[simulation]\ndt = 1e-4\nduration = \n", {"bad.toml:3:", "TOML syntax error"});
 }

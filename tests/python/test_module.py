@@ -725,6 +725,39 @@ def test_a_scene_in_static_equilibrium_and_the_reactions_at_its_clamps(tmp_path)
     assert (tmp_path / "eq.h5").stat().st_size > 0
 
 
+def test_a_preloaded_rod_stands_as_built_and_preload_again_takes_new_loads():
+    # A 15 cm cantilever held out sideways in gravity (along z, gravity along
+    # -y; below its lateral-torsional buckling load): preloaded, its rest shape carries its weight and it stays where it
+    # was built (to round-off); with a tip load added, Batch.preload() takes
+    # that too; a free rod has no preload (ValueError naming it).
+    def sideways(preload, precision="double"):
+        rod = cantilever(length=0.15)
+        rod.preload = preload
+        return manyrods.Batch([rod], precision=precision, gravity=[0, -9.81, 0])
+    for precision, tol in (("double", 1e-12), ("float", 1e-5)):
+        b = sideways(True, precision)
+        x0 = b.positions().copy()
+        b.step(1e-5, 4000)
+        assert np.abs(b.positions() - x0).max() < tol * 0.15, precision
+    sagging = sideways(False)
+    x0 = sagging.positions().copy()
+    sagging.step(1e-5, 4000)
+    assert np.abs(sagging.positions() - x0).max() > 1e-3
+    b = sideways(True)
+    tip = b.node_range(0).stop - 1
+    b.node_force[0, tip] = 1e-3
+    r = b.preload()
+    assert r["rods"] == 1 and r["contacts"] == 0 and r["residual_force"] < 1e-12
+    x0 = b.positions().copy()
+    b.step(1e-5, 4000)
+    assert np.abs(b.positions() - x0).max() < 1e-12 * 0.15
+    free = cantilever()
+    free.root = "free"
+    free.preload = True
+    with pytest.raises(ValueError, match=r"rod 0 .*preload: no rest shape makes the rod as built"):
+        manyrods.Batch([free], gravity=[0, -9.81, 0])
+
+
 def test_static_solves_that_find_no_equilibrium_raise_naming_the_rod():
     # A rod without holds in gravity is a mechanism under its load: ValueError
     # from Scene.solve_static, Batch.solve_static, or a dict with check=False.
