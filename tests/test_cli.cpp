@@ -180,7 +180,7 @@ TEST(Cli, ExampleScenesRun) {
   const std::vector<Example> examples = {
       {"seed_cantilever", "0.01", 1}, {"hair_groom", "0.1", 64},  {"cable_bundle", "0.002", 16},
       {"hair_turn", "0.3", 64},       {"cable_span", "0.05", 4},  {"cable_pile", "0.12", 18},
-      {"cable_routing", "0.05", 3},   {"helical_buckling", "20", 1}};
+      {"cable_routing", "0.05", 3},   {"helical_buckling", "20", 1}, {"hair_preload", "0.1", 64}};
   // every example scene is run here
   for (const auto& f : fs::directory_iterator(scenes)) {
     if (f.path().extension() != ".toml") continue;
