@@ -338,3 +338,55 @@ TEST(Curves, APreloadedGroomFromCurvesStaysWhereItWasModelledAndOneWithoutSags) 
   EXPECT_LT(with, 1e-3);
   EXPECT_GT(without, 0.05);
 }
+
+TEST(Curves, WidthsPerPointTaperTheStrand) {
+  // A strand whose widths fall linearly from 2e-4 m at the root to 1e-4 m
+  // at the tip, per vertex, in USD and in the HDF5 layout: the rod's
+  // section is the mean width's circle, scaled per element by its mean
+  // width over that (RodSpec::section_scale); resampled, the widths follow
+  // the arc length. Exact for a linear taper (to round-off).
+  const std::string dir = work_dir();
+  std::vector<Vec3> line;
+  std::vector<double> w;
+  for (int i = 0; i <= 10; ++i) line.push_back({0, 0, 0.01 * i}), w.push_back(2e-4 - 1e-5 * i);
+  std::string points, widths;
+  for (int i = 0; i <= 10; ++i) {
+    points += (i ? ", (" : "(") + fmt(line[std::size_t(i)][0]) + ", " + fmt(line[std::size_t(i)][1]) + ", " +
+              fmt(line[std::size_t(i)][2]) + ")";
+    widths += (i ? ", " : "") + fmt(w[std::size_t(i)]);
+  }
+  write(dir + "taper.usda", "#usda 1.0\ndef BasisCurves \"hair\"\n{\n    uniform token type = \"linear\"\n"
+                            "    int[] curveVertexCounts = [11]\n    point3f[] points = [" + points +
+                            "]\n    float[] widths = [" + widths + "] (\n        interpolation = \"vertex\"\n    )\n}\n");
+  Curve h;
+  h.points = line;
+  h.point_widths = w;
+  h.width = 1.5e-4;
+  write_h5_curves(dir + "taper.h5", {h});
+  for (const std::string file : {"taper.usda", "taper.h5"}) {
+    SCOPED_TRACE(file);
+    const std::vector<Curve> c = read_curves(dir + file);
+    ASSERT_EQ(c.size(), 1u);
+    ASSERT_EQ(c[0].point_widths.size(), 11u);
+    EXPECT_NEAR(c[0].width, 1.5e-4, 1e-12);
+    for (const int elements : {0, 5}) {
+      const RodSpec r = rod_from_curve(c[0], elements);
+      const int n = r.elements();
+      ASSERT_EQ(int(r.section_scale.size()), n);
+      EXPECT_NEAR(r.section.a, 0.75e-4, 1e-12);  // (float widths in USD: 1e-12 m is their rounding, and more)
+      for (int e = 0; e < n; ++e)  // the width at the element's midpoint over the mean
+        EXPECT_NEAR(r.section_scale[std::size_t(e)] * 1.5e-4, 2e-4 - 1e-4 * (e + 0.5) / n, 1e-11) << e;
+    }
+  }
+  // a group's own section makes it uniform again; its taper key tapers it along the curve
+  const Scene own = parse_scene(scene_with("from_curves = { file = \"taper.h5\" }\nsection = { shape = \"circle\", "
+                                           "radius = 1e-4 }\n"),
+                                dir + "own.toml");
+  EXPECT_TRUE(own.rods[0].section_scale.empty());
+  const Scene tapered = parse_scene(
+      scene_with("from_curves = { file = \"taper.h5\" }\nsection = { shape = \"circle\", taper = { root = 3e-4, tip = 1e-4 } }\n"),
+      dir + "tapered.toml");
+  ASSERT_EQ(tapered.rods[0].section_scale.size(), 10u);
+  EXPECT_EQ(tapered.rods[0].section.a, 3e-4);
+  EXPECT_NEAR(tapered.rods[0].section_scale[9], (3e-4 - 2e-4 * 0.95) / 3e-4, 1e-14);
+}

@@ -494,6 +494,12 @@ TEST(SceneErrors, InconsistentOrMissing) {
   expect_error(head + sec + mat + "preload = true\ninitial_tip_force = [1.0, 0.0, 0.0]\n",
                {"bad.toml:", "rods.0.preload: takes the rods as built as the equilibrium"});
   expect_error(head + sec + mat + "preload = 1\n", {"bad.toml:9:", "rods.0.preload"});
+  expect_error(head + "section = { shape = \"circle\", radius = 0.01, taper = { root = 0.01, tip = 0.005 } }\n" + mat,
+               {"bad.toml:", "rods.0.section.taper: gives the radius at the root and the tip: leave out radius"});
+  expect_error(head + "section = { shape = \"rectangle\", width = 0.01, height = 0.01, taper = { root = 0.01, tip = 0.005 } }\n" + mat,
+               {"bad.toml:", "rods.0.section.taper: tapers circle sections only"});
+  expect_error(head + "section = { shape = \"circle\", taper = { root = 0.01, tip = 0.0 } }\n" + mat,
+               {"bad.toml:", "rods.0.section.taper.tip"});
   // TOML syntax
   expect_error("[simulation]\ndt = 1e-4\nduration = \n", {"bad.toml:3:", "TOML syntax error"});
 }
@@ -802,4 +808,32 @@ TEST(SceneErrors, BadConstraintsAndFluids) {
                                           "\"ramp\", translation = [0.0, 0.0, 0.01], duration = 1.0 }\n"),
                                "stiff.toml");
   EXPECT_EQ(build_scene_batch<double>(st).rods.at(0).prescribed, true);
+}
+
+TEST(Scene, ATaperedSectionScalesEachElementsStiffnessMassAndContactRadius) {
+  // section = { shape = "circle", taper = { root, tip } }: the radius runs
+  // linearly from root to tip along the rod; element e gets the radius at
+  // its midpoint: EA × f², EI × f⁴ (a joint: its elements' mean), the
+  // contact radius × f (exact: f is linear in e).
+  const Scene s = parse_scene(
+      "[simulation]\ndt = 1e-5\nduration = 0.01\n[[rods]]\nelements = 4\nlength = 1.0\n"
+      "section = { shape = \"circle\", taper = { root = 0.02, tip = 0.01 } }\n"
+      "material = { density = 1000.0, youngs_modulus = 1e6, poisson_ratio = 0.5 }\n"
+      "[[colliders]]\nkind = \"plane\"\npoint = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]\n",
+      "taper.toml");
+  const RodSpec& r = s.rods[0];
+  ASSERT_EQ(r.section_scale.size(), 4u);
+  EXPECT_EQ(r.section.a, 0.02);
+  EXPECT_EQ(s.groups[0].width, 0.04);
+  const RodBatch<double> b = build_scene_batch<double>(s);
+  for (int e = 0; e < 4; ++e) {
+    const double f = (0.02 - 0.01 * (e + 0.5) / 4) / 0.02;
+    EXPECT_NEAR(r.section_scale[std::size_t(e)], f, 1e-15);
+    const int k = b.elem_index(0, e);
+    EXPECT_NEAR(b.model.elem_stiffness[2][k], 1e6 * std::numbers::pi * 0.02 * 0.02 * f * f, 1e-9);
+    EXPECT_NEAR(b.contact.elem_radius[k], 0.02 * f, 1e-15);
+  }
+  const double f0 = 0.9375, f1 = 0.8125;  // elements 0 and 1
+  EXPECT_NEAR(b.model.vor_stiffness[0][b.elem_index(0, 1)],
+              1e6 * std::numbers::pi * std::pow(0.02, 4) / 4 * (std::pow(f0, 4) + std::pow(f1, 4)) / 2, 1e-12);
 }

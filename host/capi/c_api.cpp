@@ -162,6 +162,7 @@ RodSpec rod_of(const mr_rod_desc& d, std::size_t i) {
   if (r.tip_motion && d.tip == MR_END_FREE) throw InputError(at + "tip_driver needs a held tip (clamped or pinned)");
   r.stiff_implicit = d.stiff != 0;
   r.preload = d.preload != 0;
+  if (d.section_scale) r.section_scale.assign(d.section_scale, d.section_scale + d.elements);
   return r;
 }
 

@@ -96,6 +96,14 @@ struct RodSpec {
   // Rest shape. Empty = the given geometry is the rest shape (unstressed).
   std::vector<Vec3> rest_curvature;   // [n−1] U0 at interior Voronoi points, 1/m
   std::vector<Vec3> rest_strain;      // [n] V0, rest lengths are the given ones
+  // A tapered rod: element e's section is `section` scaled by
+  // section_scale[e] in every dimension (area × f², second moments and
+  // torsion constant × f⁴, contact radius × f; a hair thicker at its root
+  // than at its tip). Stiffness, mass, rotary inertia, contact radius, drag
+  // and buoyancy follow the local section; a joint's bending and twisting
+  // stiffness is the length-weighted mean of its two elements'. Empty:
+  // uniform (f = 1). [n] numbers > 0.
+  std::vector<double> section_scale;
   // Gravity preload: the rest shape (from the two above, or the geometry)
   // is then changed so that the rod as given is its static equilibrium
   // under gravity, its loads and the colliders it rests on
@@ -199,6 +207,11 @@ struct RodInfo {
   SectionProperties section{};
   RetardationTimes tau{};
   double contact_radius = 0;  // m: the radius its centreline is swept by in contact (include/manyrods/contact.h)
+  // RodSpec::section_scale (empty: uniform); element e's contact radius is
+  // contact_radius × its scale (element_radius)
+  std::vector<double> section_scale;
+  double scale(int e) const { return section_scale.empty() ? 1.0 : section_scale[std::size_t(e)]; }
+  double element_radius(int e) const { return contact_radius * scale(e); }
   Drag drag{};                // RodSpec::drag
 };
 

@@ -32,6 +32,10 @@ struct Curve {
   std::string label;          // for messages: the file's prim or record and the curve's index
   std::vector<Vec3> points;   // a polyline (a cubic curve already evaluated)
   double width = -1;          // mean width (m) over the curve's widths; < 0: the file gives none
+  // each point's width (m) when the file gives them per vertex (or per
+  // segment end: varying), sampled along a cubic curve by its parameter;
+  // empty: the mean only (constant or one per curve)
+  std::vector<double> point_widths;
   bool evaluated = false;     // cubic: `points` sample the curve (not the file's own points)
 };
 
@@ -49,7 +53,9 @@ void write_h5_curves(const std::string& path, const std::vector<Curve>& curves);
 // evaluated cubic curves), twist-free frames by parallel transport from the
 // lab axis least aligned with the first segment, the resampled shape its
 // rest shape (rest curvature and lengths from the curve: unstressed as
-// read), radius width/2 when the curve has a width. InputError naming the
+// read), radius width/2 when the curve has a width, and tapered
+// (RodSpec::section_scale: each element's mean width over the curve's mean)
+// when it has a width per point. InputError naming the
 // curve for fewer than two points, a non-finite point, two consecutive
 // points that coincide, or a curve shorter than 1e-12 m.
 RodSpec rod_from_curve(const Curve& c, int elements);

@@ -111,6 +111,8 @@ typedef struct mr_rod_desc {
   const char* root_driver;
   const char* tip_driver;
   int stiff;              /* 1: stiff rod (hair, wire; docs/model.md "Stiff rods") */
+  const double* section_scale; /* a tapered rod: `elements` factors > 0, each element's section scaled by its
+                                  (area x f^2, second moments x f^4, contact radius x f); NULL: uniform */
   int preload;            /* 1: gravity preload: the rest shape solved so that the rod as given stands still
                              under gravity (mr_batch_preload again after setting loads; docs/model.md) */
 } mr_rod_desc;

@@ -282,6 +282,9 @@ void bind_rod_fields(nb::class_<RodSpec>& c) {
       .def_rw("material", &RodSpec::material)
       .def_rw("damping", &RodSpec::damping)
       .def_rw("stiff", &RodSpec::stiff_implicit)
+      .def_rw("section_scale", &RodSpec::section_scale,
+              "a tapered rod: each element's section scaled by this factor (area x f^2, second moments x f^4, "
+              "contact radius x f); [] (the default): uniform")
       .def_rw("preload", &RodSpec::preload,
               "gravity preload: the rest shape is solved so that the rod as given is its static equilibrium under "
               "gravity (and the batch's loads: Batch.preload() again after setting them)")

@@ -773,3 +773,22 @@ def test_static_solves_that_find_no_equilibrium_raise_naming_the_rod():
     with pytest.raises(ValueError, match="needs a double-precision batch"):
         manyrods.parse_scene(HANGING, "h.toml").build_batch(precision="float").solve_static()
     assert issubclass(manyrods.StaticError, RuntimeError)
+
+
+def test_a_tapered_rod_from_python():
+    # section_scale: each element's section scaled (a strand thicker at its
+    # root); the tip of a tapered cantilever under a tip load deflects more
+    # than a uniform one of its root's section, and a wrong length is named.
+    def tip(scale):
+        rod = cantilever(elements=10)
+        rod.section_scale = scale
+        b = manyrods.Batch([rod])
+        b.node_force[0, b.node_range(0).stop - 1] = 1e-5
+        b.solve_static()
+        return b.positions()[-1, 0]
+    uniform, tapered = tip([]), tip([1.0 - 0.05 * e for e in range(10)])
+    assert tapered > 1.3 * uniform > 0
+    rod = cantilever(elements=10)
+    rod.section_scale = [1.0] * 9
+    with pytest.raises(ValueError, match=r"section_scale: 9 given, 10 needed"):
+        manyrods.Batch([rod])

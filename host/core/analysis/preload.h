@@ -151,9 +151,9 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
     const vec3<double> x0 = load3(sv.node_x, k), x1 = load3(sv.node_x, k + 1);
     for (const ColliderFrame<double>& col : colliders) {
       Touch<double> t[3];
-      const int count = collider_touches(col, x0, x1, rod.contact_radius, t);
+      const int count = collider_touches(col, x0, x1, rod.element_radius(e), t);
       for (int i = 0; i < count; ++i) {
-        if (!(t[i].gap <= rod.contact_radius)) continue;
+        if (!(t[i].gap <= rod.element_radius(e))) continue;
         // a touch at an end of the element is a node's: the element beside
         // it finds it too (a plane's); one column per node and normal, else
         // the two would make the system singular

@@ -64,10 +64,10 @@ struct ResidualAt {
 inline void collider_push(const RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& frames,
                           std::array<Array<double>, 3>& f) {
   const RodInfo& rod = b.rods[std::size_t(r)];
-  const double radius = rod.contact_radius, delta = 0.1 * radius;
   const ConstStateView<double> s = b.state_view();
   for (int e = 0; e < rod.elements; ++e) {
     const int k = rod.offset + 1 + e;  // element k joins nodes k and k + 1
+    const double radius = rod.element_radius(e), delta = 0.1 * radius;
     const double stiff = b.model.elem_stiffness[2][k] / b.model.elem_rest_length[k];
     const vec3<double> x0 = load3(s.node_x, k), x1 = load3(s.node_x, k + 1);
     for (const ColliderFrame<double>& col : frames) {

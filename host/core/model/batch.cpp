@@ -116,6 +116,15 @@ void validate_rod(const RodSpec& s) {
     for (std::size_t i = 0; i < v.size(); ++i)
       if (!finite(v[i])) fail(std::string(name) + "[" + std::to_string(i) + "] = " + vec_str(v[i]) + ": not finite");
   };
+  if (!s.section_scale.empty()) {
+    if (s.section_scale.size() != std::size_t(n))
+      fail("section_scale: " + std::to_string(s.section_scale.size()) + " given, " + std::to_string(n) +
+           " needed (one per element)");
+    for (std::size_t i = 0; i < s.section_scale.size(); ++i)
+      if (!(std::isfinite(s.section_scale[i]) && s.section_scale[i] > 0))
+        fail("section_scale[" + std::to_string(i) + "] = " + std::to_string(s.section_scale[i]) +
+             ": must be a finite number > 0");
+  }
   check_vectors(s.rest_curvature, n - 1, "rest_curvature");
   check_vectors(s.rest_strain, n, "rest_strain");
   check_vectors(s.velocities, n + 1, "velocities");
@@ -459,6 +468,7 @@ RodInfo resolve_rod(const RodSpec& s, int r) {
   info.clamped_tip = s.clamped_tip;
   info.stiff_implicit = s.stiff_implicit;
   info.preload = s.preload;
+  info.section_scale = s.section_scale;
   info.drag = s.drag;
   int held = int(s.holds.size()) + (s.clamped_root || s.pinned_root) + (s.clamped_tip || s.pinned_tip);
   int driven = (s.root_motion != nullptr) + (s.tip_motion != nullptr);
@@ -594,9 +604,9 @@ void fill_nodes(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const Rod
   const double rho = info.elastic.density, area = info.section.area;
   for (int j = 0; j <= n; ++j) {
     const int k = o + 1 + j;
-    double mass = 0;
-    if (j > 0) mass += 0.5 * rho * area * g.length[j - 1];
-    if (j < n) mass += 0.5 * rho * area * g.length[j];
+    double mass = 0;  // (a tapered element's area: × f²)
+    if (j > 0) mass += 0.5 * rho * area * info.scale(j - 1) * info.scale(j - 1) * g.length[j - 1];
+    if (j < n) mass += 0.5 * rho * area * info.scale(j) * info.scale(j) * g.length[j];
     b.model.node_mass[k] = T(mass);
     bool held = (j == 0 && (s.clamped_root || s.pinned_root)) || (j == n && (s.clamped_tip || s.pinned_tip));
     for (const NodeHold& h : s.holds) held = held || h.node == j;
@@ -623,15 +633,16 @@ void fill_elements(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const 
   for (int e = 0; e < n; ++e) {
     const int k = o + 1 + e;
     const double len = g.length[e];
+    const double f2 = info.scale(e) * info.scale(e), f4 = f2 * f2;  // tapered: area × f², I × f⁴
     b.model.elem_rest_length[k] = T(len);
     const E3 v0 = s.rest_strain.empty() ? E3(g.frame[e] * (to_eigen(s.nodes[e + 1]) - to_eigen(s.nodes[e])) / len)
                                         : to_eigen(s.rest_strain[e]);
     for (int d = 0; d < 3; ++d) {
-      b.model.elem_stiffness[d][k] = T(cf[d]);
+      b.model.elem_stiffness[d][k] = T(cf[d] * f2);
       b.model.elem_rest_strain[d][k] = T(v0[d]);
       b.model.elem_tau[d][k] = T(tau[d]);
-      b.model.elem_inertia[d][k] = T(c.density * len * J[d]);
-      b.model.elem_inv_inertia[d][k] = T(1 / (c.density * len * J[d]));
+      b.model.elem_inertia[d][k] = T(c.density * len * J[d] * f4);
+      b.model.elem_inv_inertia[d][k] = T(1 / (c.density * len * J[d] * f4));
       b.state.elem_w[d][k] = s.angular_velocities.empty() ? T(0) : T(s.angular_velocities[e][d]);
     }
     for (int i = 0; i < 9; ++i) b.state.elem_Q[i][k] = T(s.frames[e][i]);
@@ -662,10 +673,13 @@ void fill_joints(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const Ro
   const ElasticConstants& c = info.elastic;
   const Vec3 cm = {c.E * info.section.I1, c.E * info.section.I2, c.G * info.section.torsion_constant};
   const Vec3 tau = {info.tau.extension, info.tau.extension, info.tau.shear};
-  auto set_vor = [&](int k, double d_hat, const E3& u0) {
+  // a tapered rod's joint: the length-weighted mean of its elements' C_M
+  // (the bending energy ∫ EI κ² over the joint's half elements), i.e. × f⁴
+  auto f4 = [&](int e) { return std::pow(info.scale(e), 4); };
+  auto set_vor = [&](int k, double d_hat, const E3& u0, double scale) {
     b.model.vor_rest_length[k] = T(d_hat);
     for (int d = 0; d < 3; ++d) {
-      b.model.vor_stiffness[d][k] = T(cm[d]);
+      b.model.vor_stiffness[d][k] = T(cm[d] * scale);
       b.model.vor_rest_curvature[d][k] = T(u0[d]);
       b.model.vor_tau[d][k] = T(tau[d]);
     }
@@ -674,19 +688,19 @@ void fill_joints(RodBatch<T>& b, const RodSpec& s, const RodInfo& info, const Ro
     const double d_hat = 0.5 * (g.length[j] + g.length[j + 1]);
     const E3 u0 = s.rest_curvature.empty() ? discrete_curvature(g.frame[j], g.frame[j + 1], d_hat)
                                            : to_eigen(s.rest_curvature[j]);
-    set_vor(o + 2 + j, d_hat, u0);
+    set_vor(o + 2 + j, d_hat, u0, (g.length[j] * f4(j) + g.length[j + 1] * f4(j + 1)) / (2 * d_hat));
   }
   if (s.clamped_root) {
     const double d_hat = 0.5 * g.length[0];
     const Mat3 root = s.root_frame ? *s.root_frame : s.frames[0];
-    set_vor(o + 1, d_hat, discrete_curvature(to_eigen(root), g.frame[0], d_hat));
+    set_vor(o + 1, d_hat, discrete_curvature(to_eigen(root), g.frame[0], d_hat), f4(0));
   } else {
     b.model.vor_rest_length[o + 1] = T(0.5 * g.length[0]);
   }
   if (s.clamped_tip) {
     const double d_hat = 0.5 * g.length[n - 1];
     const Mat3 tip = s.tip_frame ? *s.tip_frame : s.frames[n - 1];
-    set_vor(o + n + 1, d_hat, discrete_curvature(g.frame[n - 1], to_eigen(tip), d_hat));
+    set_vor(o + n + 1, d_hat, discrete_curvature(g.frame[n - 1], to_eigen(tip), d_hat), f4(n - 1));
   } else {
     b.model.vor_rest_length[o + n + 1] = T(0.5 * g.length[n - 1]);
   }

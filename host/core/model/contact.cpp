@@ -266,15 +266,17 @@ void set_contact(RodBatch<T>& b, const ContactSpec& spec) {
     double lmin = 1e300;
     for (int e = 0; e < info.elements; ++e) {
       const int k = b.elem_index(r, e);
-      c.elem_radius[k] = T(info.contact_radius);
+      c.elem_radius[k] = T(info.element_radius(e));
       c.elem_rod[k] = r;
       lmin = std::min(lmin, double(b.model.elem_rest_length[k]));
-      c.max_radius = std::max(c.max_radius, info.contact_radius);
+      c.max_radius = std::max(c.max_radius, info.element_radius(e));
     }
     // the tightest loop a tube of radius r can make has radius r: elements
     // less than half its circumference (π r) apart along the rod touch at
     // the chord of that loop (kernels/contact.h near_contact_distance)
-    c.rod_near[r] = 1 + int(std::ceil(std::numbers::pi * info.contact_radius / lmin));
+    double thickest = 0;
+    for (int e = 0; e < info.elements; ++e) thickest = std::max(thickest, info.element_radius(e));
+    c.rod_near[r] = 1 + int(std::ceil(std::numbers::pi * thickest / lmin));
   }
   b.contact = std::move(c);
   check_start_outside(b);

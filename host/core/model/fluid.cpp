@@ -175,13 +175,16 @@ void set_fluid(RodBatch<T>& b, const Fluid& fluid) {
       const double left = j > 0 ? 0.5 * double(b.model.elem_rest_length[k - 1]) : 0.0;
       const double right = j < r.elements ? 0.5 * double(b.model.elem_rest_length[k]) : 0.0;
       const double l = left + right;
+      // a tapered rod: the half elements' own diameters and areas (× f, × f²)
+      const double fl = j > 0 ? r.scale(j - 1) : 0.0, fr = j < r.elements ? r.scale(j) : 0.0;
+      const double dl = (fl * left + fr * right) * diameter, al = (fl * fl * left + fr * fr * right) * area;
       f.node_half_left[k] = T(left);
       f.node_half_right[k] = T(right);
       f.node_cn[k] = T(d.normal * l);
       f.node_ct[k] = T(d.tangential * l);
-      f.node_qn[k] = T(0.5 * rho * d.cd_normal * diameter * l);
-      f.node_qt[k] = T(0.5 * rho * d.cd_tangential * std::numbers::pi * diameter * l);
-      f.node_buoyancy[k] = T(d.buoyancy ? rho * area * l : 0.0);
+      f.node_qn[k] = T(0.5 * rho * d.cd_normal * dl);
+      f.node_qt[k] = T(0.5 * rho * d.cd_tangential * std::numbers::pi * dl);
+      f.node_buoyancy[k] = T(d.buoyancy ? rho * al : 0.0);
     }
   }
 }

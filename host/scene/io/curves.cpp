@@ -302,6 +302,19 @@ double curve_width(const std::vector<double>& w, std::size_t curves, std::size_t
   return -1;
 }
 
+// `count` widths w[o, o + count) spread over `points` points by index (a
+// cubic curve's samples follow its parameter, as its control points do).
+std::vector<double> spread_widths(const std::vector<double>& w, std::size_t o, std::size_t count, std::size_t points) {
+  std::vector<double> out(points);
+  for (std::size_t i = 0; i < points; ++i) {
+    const double t = points > 1 ? double(i) * double(count - 1) / double(points - 1) : 0.0;
+    const std::size_t j = std::min(count - 1, std::size_t(t));
+    const double a = t - double(j);
+    out[i] = j + 1 < count ? (1 - a) * w[o + j] + a * w[o + j + 1] : w[o + j];
+  }
+  return out;
+}
+
 void check_width(const Curve& k) {
   if (!(k.width > 0 && std::isfinite(k.width)))
     throw InputError(k.label + ": widths must be finite and > 0 (mean " + std::to_string(k.width) + ")");
@@ -374,6 +387,11 @@ std::vector<Curve> read_usda_curves(std::string_view text, const std::string& so
       } else {
         k.points = std::move(pts);
       }
+      // per-point widths (a tapered strand): vertex or varying
+      if (wa.found() && nw == total && nw != counts.size() && n > 1)
+        k.point_widths = spread_widths(widths, o, n, k.points.size());
+      else if (wa.found() && nw == varying_total && nw != counts.size() && nv > 1)
+        k.point_widths = spread_widths(widths, ov, nv, k.points.size());
       out.push_back(std::move(k));
       o += n;
       ov += nv;
@@ -488,6 +506,7 @@ std::vector<Curve> read_h5_curves(const std::string& path) {
     if (nw > 0) {
       k.width = curve_width(widths, counts.size(), total, c, o, n);
       check_width(k);
+      if (nw == total && nw != counts.size() && n > 1) k.point_widths.assign(widths.begin() + long(o), widths.begin() + long(o + n));
     }
     out.push_back(std::move(k));
     o += n;
@@ -504,13 +523,17 @@ void write_h5_curves(const std::string& path, const std::vector<Curve>& curves) 
   const H5 g{H5Gcreate2(f.id, "curves", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose};
   std::vector<double> xyz, widths;
   std::vector<long long> counts;
-  bool all_widths = !curves.empty();
+  bool all_widths = !curves.empty(), all_point_widths = !curves.empty();
+  std::vector<double> point_widths;
   for (const Curve& c : curves) {
     counts.push_back((long long)c.points.size());
     for (const Vec3& p : c.points) xyz.insert(xyz.end(), p.begin(), p.end());
     all_widths = all_widths && c.width > 0;
     widths.push_back(c.width);
+    all_point_widths = all_point_widths && c.point_widths.size() == c.points.size();
+    point_widths.insert(point_widths.end(), c.point_widths.begin(), c.point_widths.end());
   }
+  if (all_point_widths) widths = point_widths;  // one per point (a tapered groom)
   auto write = [&](const char* name, hid_t type, const void* data, std::vector<hsize_t> dims) {
     const H5 sp{H5Screate_simple(int(dims.size()), dims.data(), nullptr), H5Sclose};
     const H5 d{H5Dcreate2(g.id, name, type, sp.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose};
@@ -551,20 +574,30 @@ RodSpec rod_from_curve(const Curve& c, int elements) {
   if (elements == 0 && c.evaluated)
     throw InputError(c.label + ": a cubic curve is resampled: give `elements` (its control points are not on it)");
   std::vector<Vec3> x;
+  std::vector<double> w;  // the widths at x (a tapered curve)
+  const bool tapered = c.point_widths.size() == p.size();
   if (elements == 0) {
     x = p;
+    if (tapered) w = c.point_widths;
   } else {  // equal arc length along the polyline
     x.resize(std::size_t(elements) + 1);
+    if (tapered) w.resize(std::size_t(elements) + 1);
     std::size_t k = 0;
     for (int i = 0; i <= elements; ++i) {
       const double t = length * double(i) / elements;
       while (k + 2 < p.size() && s[k + 1] < t) ++k;
       const double a = std::clamp((t - s[k]) / (s[k + 1] - s[k]), 0.0, 1.0);
       for (int d = 0; d < 3; ++d) x[std::size_t(i)][d] = (1 - a) * p[k][d] + a * p[k + 1][d];
+      if (tapered) w[std::size_t(i)] = (1 - a) * c.point_widths[k] + a * c.point_widths[k + 1];
     }
     x.front() = p.front();
     x.back() = p.back();
   }
+  if (tapered)
+    for (std::size_t i = 0; i < w.size(); ++i)
+      if (!(w[i] > 0 && std::isfinite(w[i])))
+        throw InputError(c.label + ": width " + std::to_string(w[i]) + " at point " + std::to_string(i) +
+                         ": widths must be finite and > 0");
   // the lab axis least aligned with the first element: d1 starts there, made orthogonal
   const Vec3 t{x[1][0] - x[0][0], x[1][1] - x[0][1], x[1][2] - x[0][2]};
   int a = 0;
@@ -575,6 +608,9 @@ RodSpec rod_from_curve(const Curve& c, int elements) {
   std::vector<Mat3> q = RodSpec::parallel_transport_frames(x, n);
   RodSpec r = RodSpec::polyline(std::move(x), std::move(q));
   if (c.width > 0) r.section = Section::circle(0.5 * c.width);
+  // tapered: each element's section scaled by its mean width over the curve's mean
+  if (tapered && c.width > 0)
+    for (std::size_t e = 0; e + 1 < w.size(); ++e) r.section_scale.push_back(0.5 * (w[e] + w[e + 1]) / c.width);
   return r;
 }
 

@@ -855,7 +855,9 @@ Placement parse_placement(const Table& g, int count, const Vec3& start, const Ve
   g.ctx.fail(*kn, g.key("placement.kind"), "\"" + kind + "\" is not one of \"grid\", \"sphere\", \"list\"");
 }
 
-Section parse_section(const Table& g, double* width) {
+// A circle's `taper = { root = r0, tip = r1 }` (m): the radius runs linearly
+// along the rod's arc length from r0 to r1 (taper: the pair, else unset).
+Section parse_section(const Table& g, double* width, std::optional<std::array<double, 2>>* taper) {
   const toml::node* n = g.get("section");
   if (!n) g.missing("section");
   if (!n->is_table()) g.fail("section", std::string("must be a table, got ") + type_name(*n));
@@ -868,12 +870,20 @@ Section parse_section(const Table& g, double* width) {
   if (!sh->is_string()) g.ctx.fail(*sh, path + ".shape", "must be a string");
   const std::string shape = sh->as_string()->get();
   if (shape == "circle") {
-    const Table t(g.ctx, st, path, {"shape", "radius"});
+    const Table t(g.ctx, st, path, {"shape", "radius", "taper"});
+    if (t.has("taper")) {
+      if (t.has("radius")) t.fail("taper", "gives the radius at the root and the tip: leave out radius");
+      const Table tt = t.sub("taper", {"root", "tip"});
+      *taper = std::array<double, 2>{tt.positive("root"), tt.positive("tip")};
+      *width = 2 * std::max((**taper)[0], (**taper)[1]);
+      return Section::circle((**taper)[0]);
+    }
     *width = 2 * t.positive("radius");
     return Section::circle(t.positive("radius"));
   }
   if (shape == "ellipse") {
-    const Table t(g.ctx, st, path, {"shape", "semi_axes"});
+    const Table t(g.ctx, st, path, {"shape", "semi_axes", "taper"});
+    if (t.has("taper")) t.fail("taper", "tapers circle sections only (give shape = \"circle\")");
     const toml::node* a = t.get("semi_axes");
     if (!a) t.missing("semi_axes", "[a, b] in m");
     const toml::array* arr = a->as_array();
@@ -889,12 +899,14 @@ Section parse_section(const Table& g, double* width) {
     return Section::ellipse(v[0], v[1]);
   }
   if (shape == "rectangle") {
-    const Table t(g.ctx, st, path, {"shape", "width", "height"});
+    const Table t(g.ctx, st, path, {"shape", "width", "height", "taper"});
+    if (t.has("taper")) t.fail("taper", "tapers circle sections only (give shape = \"circle\")");
     *width = std::max(t.positive("width"), t.positive("height"));
     return Section::rectangle(t.positive("width"), t.positive("height"));
   }
   if (shape == "hollow_circle") {
-    const Table t(g.ctx, st, path, {"shape", "outer_radius", "inner_radius"});
+    const Table t(g.ctx, st, path, {"shape", "outer_radius", "inner_radius", "taper"});
+    if (t.has("taper")) t.fail("taper", "tapers circle sections only (give shape = \"circle\")");
     const double ro = t.positive("outer_radius"), ri = t.non_negative("inner_radius");
     if (!(ri < ro)) t.fail("inner_radius", "must be < outer_radius = " + num(ro) + " (got " + num(ri) + ")");
     *width = 2 * ro;
@@ -1066,6 +1078,7 @@ struct Pending {
   int elements;
   Vec3 u0;
   bool curved, stiff = false, preload = false;
+  std::optional<std::array<double, 2>> taper;  // section.taper: root and tip radius (m)
   std::optional<HoldKind> root_hold, tip_hold;  // nullopt: free
   std::shared_ptr<const RootMotion> tip_motion;
   std::vector<NodeHold> holds;  // [[rods.constraints]]
@@ -1242,7 +1255,7 @@ Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const
     if (!g.has("normal") && parallel()) p.normal = RodSpec::normal_across(p.direction);  // a rod along x
     if (parallel()) g.fail("normal", "normal must not be parallel to direction");
   }
-  if (!p.section_from_widths) p.section = parse_section(g, &p.g.width);
+  if (!p.section_from_widths) p.section = parse_section(g, &p.g.width, &p.taper);
   p.material = parse_material(g);
   p.damping = parse_damping(g);
   p.u0 = p.curves.empty() ? g.vec3("rest_curvature", {0, 0, 0}) : Vec3{0, 0, 0};
@@ -1275,6 +1288,20 @@ Pending parse_group(const Table& g, const toml::table& gt, std::size_t gi, const
   return p;
 }
 
+// A linear taper from radius r0 at the root to r1 at the tip, along the
+// rod's arc length: each element's section scale r(s)/r0 at its midpoint.
+std::vector<double> taper_scale(const RodSpec& r, double r0, double r1) {
+  std::vector<double> s(std::size_t(r.elements() + 1), 0.0);
+  for (int e = 0; e < r.elements(); ++e)
+    s[std::size_t(e + 1)] = s[std::size_t(e)] + (to_e(r.nodes[std::size_t(e + 1)]) - to_e(r.nodes[std::size_t(e)])).norm();
+  std::vector<double> f(std::size_t(r.elements()));
+  for (int e = 0; e < r.elements(); ++e) {
+    const double mid = 0.5 * (s[std::size_t(e)] + s[std::size_t(e + 1)]) / s.back();
+    f[std::size_t(e)] = (r0 + (r1 - r0) * mid) / r0;
+  }
+  return f;
+}
+
 // The group's rods, appended to the scene.
 void expand_group(Scene& sc, Pending& p, std::size_t gi) {
   p.g.first_rod = int(sc.rods.size());
@@ -1283,7 +1310,10 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
     try {
       if (!p.curves.empty()) {
         r = rod_from_curve(p.curves[std::size_t(i)], p.curve_elements);
-        if (!p.section_from_widths) r.section = p.section;
+        if (!p.section_from_widths) {  // the group's section, uniform (or its own taper, below)
+          r.section = p.section;
+          r.section_scale.clear();
+        }
       } else
       r = p.curved ? curved_rod(p.place.starts[i], p.place.directions[i], p.place.normals[i], p.length, p.elements,
                                 p.u0)
@@ -1306,6 +1336,7 @@ void expand_group(Scene& sc, Pending& p, std::size_t gi) {
     r.drag = p.drag;
     r.stiff_implicit = p.stiff;
     r.preload = p.preload;
+    if (p.taper) r.section_scale = taper_scale(r, (*p.taper)[0], (*p.taper)[1]);
     sc.rods.push_back(std::move(r));
     sc.rod_group.push_back(int(gi));
   }

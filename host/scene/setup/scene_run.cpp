@@ -96,6 +96,8 @@ std::string static_key(const RodSpec& r, const RodGroup& g, const Vec3& gravity)
   os << int(r.section.shape) << ',' << r.section.a << ',' << r.section.b << ',' << r.material.density << ','
      << r.material.youngs_modulus << ',' << r.material.poisson_ratio << ',' << r.material.shear_modulus << ','
      << r.shear_stretch_scale << ',' << r.clamped_root << ',' << r.clamped_tip << ';';
+  for (double f : r.section_scale) os << f << ',';
+  os << ';';
   const TermSwitches& t = g.terms;
   os << t.shear << t.stretch << t.bend << t.twist << t.gravity << ';';
   v3(g.initial_tip_force);
