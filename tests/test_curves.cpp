@@ -265,7 +265,7 @@ TEST(Curves, BadCurvesAreErrorsThatNameTheCurve) {
   t.replace(t.find("curveVertexCounts = [3]"), 23, "curveVertexCounts = [4]");
   EXPECT_TRUE(has(error_of(t), "add up to 4 points, points has 3"));
   EXPECT_TRUE(has(error_of("#usda 1.0\ndef Xform \"x\"\n{\n}\n"), "no BasisCurves prim"));
-  EXPECT_TRUE(has(error_of("PXR-USDC binary", ".usdc"), "binary USD is not read"));
+  EXPECT_TRUE(has(error_of("PXR-USDC binary", ".usdc"), "binary USD is read through OpenUSD: from Python with usd-core installed"));
   EXPECT_TRUE(has(error_of("v 0 0 0\n", ".obj"), "no polylines"));
   EXPECT_TRUE(has(error_of("not hdf5", ".h5"), "not an HDF5 file"));
   m = error_of(usda({good}, 1e-3));

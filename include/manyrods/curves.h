@@ -11,8 +11,10 @@
 //          nonperiodic). Cubic curves (bezier, bspline, catmullRom;
 //          nonperiodic or pinned) are evaluated, 16 points per segment;
 //          periodic curves are refused (a closed loop is not a rod). The
-//          prims' transforms (xformOps, parents') are not applied: points
-//          are taken as they are written.
+//          prims' transforms are applied (xformOpOrder: translate, scale,
+//          rotateX/Y/Z, rotateXYZ and the other orders, orient, transform,
+//          !invert!, !resetXformStack!; parents' too; the earliest time
+//          sample), widths scaled by the transform's mean scale.
 //   .obj   Wavefront OBJ polylines: every `l` record (tinyobjloader), no widths.
 //   .h5    HDF5, the layout docs/scenes.md gives: /curves/points [N, 3],
 //          /curves/curve_vertex_counts [C], optionally /curves/widths [N],
@@ -20,6 +22,7 @@
 // Every problem is an InputError that names the file and the curve.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -40,6 +43,15 @@ struct Curve {
 };
 
 std::vector<Curve> read_curves(const std::string& path);
+
+// Binary USD (.usdc, .usdz, and .usd that is not text) is read through a
+// converter to USD ASCII text, when one is set: the Python module sets one
+// that uses OpenUSD's Python module (pxr, from usd-core) when it is
+// installed. Without one, binary USD is an InputError saying how to
+// convert it. The converter throws InputError naming the file it cannot
+// convert.
+using UsdConverter = std::function<std::string(const std::string& path)>;
+void set_usd_converter(UsdConverter converter);
 std::vector<Curve> read_usda_curves(std::string_view text, const std::string& source);
 std::vector<Curve> read_obj_curves(const std::string& path);
 std::vector<Curve> read_h5_curves(const std::string& path);

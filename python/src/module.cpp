@@ -5,6 +5,7 @@
 // order: errors (here), sections, materials, damping and rods (rod.cpp),
 // batches (batch.cpp), scenes and the module's readers (scene.cpp).
 #include "bindings.h"
+#include "manyrods/curves.h"
 #include "manyrods/h5io.h"
 #include "manyrods/runner.h"
 
@@ -40,4 +41,24 @@ NB_MODULE(_core, m) {
   manyrods_python::bind_batch(m);
   manyrods_python::bind_scene(m);
   manyrods_python::bind_io(m);
+  // binary USD grooms (.usdc, .usdz) through OpenUSD's pxr, imported when
+  // one is read (docs/scenes.md "Grooms from curves")
+  manyrods::scene::set_usd_converter([](const std::string& path) -> std::string {
+    nb::gil_scoped_acquire gil;
+    nb::object usd;
+    try {
+      usd = nb::module_::import_("pxr.Usd");
+    } catch (const nb::python_error&) {
+      throw manyrods::InputError(path + ": binary USD is read through OpenUSD, whose Python module (pxr) is not "
+                                 "installed: pip install usd-core, or convert it to USD ASCII (usdcat)");
+    }
+    nb::object stage;
+    try {
+      stage = usd.attr("Stage").attr("Open")(path);
+    } catch (const nb::python_error& e) {
+      throw manyrods::InputError(path + ": OpenUSD cannot open it: " + e.what());
+    }
+    if (stage.is_none()) throw manyrods::InputError(path + ": OpenUSD cannot open it");
+    return nb::cast<std::string>(stage.attr("ExportToString")());  // the composed stage, flattened, as text
+  });
 }

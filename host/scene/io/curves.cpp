@@ -5,6 +5,8 @@
 #include <hdf5.h>
 #include <tiny_obj_loader.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -25,6 +27,12 @@ namespace manyrods::scene {
 namespace {
 
 [[noreturn]] void fail(const std::string& source, const std::string& msg) { throw InputError(source + ": " + msg); }
+
+// set_usd_converter's (none by default)
+UsdConverter& usd_converter() {
+  static UsdConverter c;
+  return c;
+}
 
 std::string read_text(const std::string& path) {
   std::error_code ec;
@@ -101,9 +109,13 @@ struct Usda {
   struct Prim {
     std::string name;
     std::size_t begin, end;  // body, inside the braces
+    // the bodies of the prims it is nested in, outermost first (their
+    // transforms apply to it)
+    std::vector<std::pair<std::size_t, std::size_t>> parents;
   };
   // Every `def BasisCurves "name" (…) { … }`, nested ones too.
-  void find_prims(std::size_t from, std::size_t to, std::vector<Prim>& out) const {
+  void find_prims(std::size_t from, std::size_t to, std::vector<Prim>& out,
+                  std::vector<std::pair<std::size_t, std::size_t>> parents = {}) const {
     for (std::size_t i = from; i < to;) {
       const char c = s[i];
       if (c == '"' || c == '\'') { i = skip_string(i); continue; }
@@ -126,8 +138,10 @@ struct Usda {
       if (k < to && s[k] == '(') k = skip_space(matching(k) + 1);
       if (k >= to || s[k] != '{') error(k, "prim \"" + name + "\": expected '{'");
       const std::size_t close = matching(k);
-      if (type == "BasisCurves") out.push_back({name, k + 1, close});
-      find_prims(k + 1, close, out);
+      if (type == "BasisCurves") out.push_back({name, k + 1, close, parents});
+      parents.emplace_back(k + 1, close);
+      find_prims(k + 1, close, out, parents);
+      parents.pop_back();
       i = close + 1;
     }
   }
@@ -166,9 +180,18 @@ struct Usda {
     return def.found() ? def : samples;
   }
 
-  // The numbers of the array value at i ('[' … ']', tuples flattened).
+  // The numbers of the array value at i ('[' … ']', tuples flattened), of a
+  // tuple ('(' … ')', a matrix's rows flattened), or one number.
   std::vector<double> numbers(std::size_t& i) const {
-    if (i >= s.size() || s[i] != '[') error(i, "expected an array '['");
+    if (i < s.size() && s[i] != '[' && s[i] != '(') {
+      const std::string tok(s.substr(i, std::min<std::size_t>(64, s.size() - i)));
+      char* end = nullptr;
+      const double x = std::strtod(tok.c_str(), &end);
+      if (end == tok.c_str()) error(i, "expected an array '[' or a number");
+      i += std::size_t(end - tok.c_str());
+      return {x};
+    }
+    if (i >= s.size()) error(i, "expected an array '['");
     const std::size_t close = matching(i);
     std::vector<double> v;
     for (std::size_t k = i + 1; k < close;) {
@@ -210,13 +233,103 @@ struct Usda {
         best = t;
         v = numbers(k);
         any = true;
-      } else {
+      } else if (s[k] == '[' || s[k] == '(') {
         k = matching(k) + 1;
+      } else {
+        (void)numbers(k);
       }
     }
     if (!any) error(a.at, what + ".timeSamples: no sample");
     return v;
   }
+  // The quoted strings of the array at i (a token[]).
+  std::vector<std::string> tokens(std::size_t i) const {
+    if (i >= s.size() || s[i] != '[') error(i, "expected an array of tokens '['");
+    const std::size_t close = matching(i);
+    std::vector<std::string> v;
+    for (std::size_t k = skip_space(i + 1); k < close; k = skip_space(k)) {
+      if (s[k] == ',') { ++k; continue; }
+      v.push_back(quoted(k));
+    }
+    return v;
+  }
+
+  // The local transform of the prim whose body is [begin, end) (its
+  // xformOpOrder applied in order, column vectors: M = Op_0 Op_1 …;
+  // "!invert!" ops inverted), and whether it resets its parents' stack.
+  Eigen::Affine3d local_transform(std::size_t begin, std::size_t end, const std::string& where, bool& reset) const {
+    const Prim body{"", begin, end, {}};
+    Eigen::Affine3d m = Eigen::Affine3d::Identity();
+    reset = false;
+    const Attr order = find_attr(body, "xformOpOrder");
+    if (!order.found()) return m;
+    for (std::string op : tokens(order.at)) {
+      if (op == "!resetXformStack!") {
+        reset = true;
+        m.setIdentity();
+        continue;
+      }
+      const bool invert = op.rfind("!invert!", 0) == 0;
+      if (invert) op = op.substr(8);
+      const Attr a = find_attr(body, op);
+      if (!a.found()) error(order.at, where + ": xformOpOrder names " + op + ", which the prim does not have");
+      const std::vector<double> v = values(a, where + " " + op);
+      // the op's kind: xformOp:<kind>[:suffix]
+      const std::string kind = op.substr(8, op.find(':', 8) == std::string::npos ? std::string::npos : op.find(':', 8) - 8);
+      auto need = [&](std::size_t count) {
+        if (v.size() != count)
+          error(a.at, where + ": " + op + " has " + std::to_string(v.size()) + " numbers, " + std::to_string(count) +
+                          " expected");
+      };
+      constexpr double kDeg = 3.14159265358979323846 / 180;
+      auto axis = [](char c) { return c == 'X' ? Eigen::Vector3d::UnitX() : c == 'Y' ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ(); };
+      Eigen::Affine3d t = Eigen::Affine3d::Identity();
+      if (kind == "translate") {
+        need(3);
+        t.translate(Eigen::Vector3d(v[0], v[1], v[2]));
+      } else if (kind == "scale") {
+        need(3);
+        t.scale(Eigen::Vector3d(v[0], v[1], v[2]));
+      } else if (kind == "rotateX" || kind == "rotateY" || kind == "rotateZ") {
+        need(1);
+        t.rotate(Eigen::AngleAxisd(v[0] * kDeg, axis(kind[6])));
+      } else if (kind.size() == 9 && kind.rfind("rotate", 0) == 0) {  // rotateXYZ …: the first axis turns first
+        need(3);
+        for (int j = 2; j >= 0; --j) {
+          const char c = kind[std::size_t(6 + j)];
+          t.rotate(Eigen::AngleAxisd(v[std::size_t(c - 'X')] * kDeg, axis(c)));
+        }
+      } else if (kind == "orient") {
+        need(4);  // (real, i, j, k)
+        t.rotate(Eigen::Quaterniond(v[0], v[1], v[2], v[3]).normalized());
+      } else if (kind == "transform") {
+        need(16);  // rows, row vectors: the transpose of ours
+        Eigen::Matrix4d r;
+        for (int row = 0; row < 4; ++row)
+          for (int col = 0; col < 4; ++col) r(col, row) = v[std::size_t(4 * row + col)];
+        t.matrix() = r;
+      } else {
+        error(a.at, where + ": " + op + ": an xformOp this reader does not apply (translate, scale, rotateX/Y/Z, "
+                                        "rotateXYZ and the other orders, orient, transform)");
+      }
+      m = m * (invert ? t.inverse() : t);
+    }
+    return m;
+  }
+
+  // The prim's points' transform to the layer's world: its parents' and
+  // its own (a !resetXformStack! drops what came before it).
+  Eigen::Affine3d world_transform(const Prim& p, const std::string& where) const {
+    Eigen::Affine3d m = Eigen::Affine3d::Identity();
+    bool reset = false;
+    for (const auto& [b, e] : p.parents) {
+      const Eigen::Affine3d l = local_transform(b, e, where, reset);
+      m = reset ? l : Eigen::Affine3d(m * l);
+    }
+    const Eigen::Affine3d l = local_transform(p.begin, p.end, where, reset);
+    return reset ? l : Eigen::Affine3d(m * l);
+  }
+
   std::string token(const Prim& p, std::string_view name, const std::string& fallback) const {
     const Attr a = find_attr(p, name);
     if (!a.found()) return fallback;
@@ -336,9 +449,18 @@ std::vector<Curve> read_usda_curves(std::string_view text, const std::string& so
     const Usda::Attr pa = u.find_attr(p, "points"), ca = u.find_attr(p, "curveVertexCounts");
     if (!pa.found()) u.error(p.begin, where + ": no points");
     if (!ca.found()) u.error(p.begin, where + ": no curveVertexCounts");
-    const std::vector<double> xyz = u.values(pa, where + " points");
+    std::vector<double> xyz = u.values(pa, where + " points");
     const std::vector<double> counts = u.values(ca, where + " curveVertexCounts");
     if (xyz.size() % 3 != 0) u.error(pa.at, where + ": points: " + std::to_string(xyz.size()) + " numbers, not x y z triples");
+    // the prim's transform and its parents' (xformOps): points to the
+    // layer's world frame, widths by the transform's mean scale
+    const Eigen::Affine3d world = u.world_transform(p, where);
+    const double width_scale = std::cbrt(std::abs(world.linear().determinant()));
+    if (!world.matrix().isIdentity(0))
+      for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) {
+        const Eigen::Vector3d x = world * Eigen::Vector3d(xyz[i], xyz[i + 1], xyz[i + 2]);
+        xyz[i] = x[0], xyz[i + 1] = x[1], xyz[i + 2] = x[2];
+      }
     std::size_t total = 0;
     for (double c : counts) {
       if (!(c >= 0) || c != std::floor(c)) u.error(ca.at, where + ": curveVertexCounts: not a count: " + std::to_string(c));
@@ -358,6 +480,7 @@ std::vector<Curve> read_usda_curves(std::string_view text, const std::string& so
     if (!wa.found()) wa = u.find_attr(p, "primvars:widths");
     std::vector<double> widths;
     if (wa.found()) widths = u.values(wa, where + " widths");
+    for (double& w : widths) w *= width_scale;
     std::size_t varying_total = 0;
     for (double c : counts) varying_total += varying_count(std::size_t(c), type, basis, wrap);
     const std::size_t nw = widths.size();
@@ -549,10 +672,22 @@ std::vector<Curve> read_curves(const std::string& path) {
   if (ext == ".usda") return read_usda_curves(read_text(path), path);
   if (ext == ".obj") return read_obj_curves(path);
   if (ext == ".h5" || ext == ".hdf5") return read_h5_curves(path);
-  if (ext == ".usd" || ext == ".usdc" || ext == ".usdz")
-    fail(path, "binary USD is not read: write the groom as USD ASCII (.usda; usdcat converts)");
-  fail(path, "a curve file is .usda, .obj or .h5 (got \"" + ext + "\")");
+  if (ext == ".usd" || ext == ".usdc" || ext == ".usdz") {
+    if (ext == ".usd") {  // .usd may be text
+      const std::string text = read_text(path);
+      if (text.rfind("#usda", 0) == 0) return read_usda_curves(text, path);
+    }
+    const UsdConverter& convert = usd_converter();
+    if (!convert)
+      fail(path, "binary USD is read through OpenUSD: from Python with usd-core installed (pip install usd-core), "
+                 "or convert it to USD ASCII first (usdcat " + std::filesystem::path(path).filename().string() +
+                 " -o groom.usda) and give the .usda");
+    return read_usda_curves(convert(path), path);
+  }
+  fail(path, "a curve file is .usda, .usd, .usdc, .usdz (binary USD through OpenUSD), .obj or .h5 (got \"" + ext + "\")");
 }
+
+void set_usd_converter(UsdConverter converter) { usd_converter() = std::move(converter); }
 
 RodSpec rod_from_curve(const Curve& c, int elements) {
   const std::vector<Vec3>& p = c.points;
