@@ -726,3 +726,71 @@ TEST(Statics, ATaperedCantileverDeflectsAsItsLocalSectionSays) {
   EXPECT_LT(e40, 2.0 / (40 * 40));
   EXPECT_GT(std::log2(e20 / e40), 1.7);
 }
+
+TEST(Statics, AHeavyCableBetweenClampsTendsToTheCatenaryAsItsBendingLayerVanishes) {
+  // docs/validation.md "1h". A cable of length 1 m (r = 2 mm, ρ = 1400,
+  // stretch and shear stiffened to EA = 1.3e4 N: nearly inextensible, its
+  // stretch 1e-5) clamped level at both ends, its tip driven 0.2 m in over
+  // a second, solved static at t = 1. Independent reference: the
+  // inextensible catenary of that length and span, L = 2a sinh(S/2a),
+  // H = q a, end tension T = q a cosh(S/2a). The cable's bending stiffness
+  // holds its ends level over a layer λ = √(EI/H) and carries part of the
+  // weight: its tension tends to the catenary's as λ → 0, the layer's
+  // effect on the slack being at most first order in λ/S. Asserted: the
+  // clamps' vertical forces add up to the weight and the horizontal ones
+  // cancel, to the solve's residual (its largest force on a node, times the
+  // nodes); at E = 100 kPa and 10 kPa (λ √10 apart) the errors of H and T
+  // are below 2 λ/S (the first-order bound; measured 1.1 λ/S and 0.4 λ/S at
+  // 100 kPa) and fall by more than 2 (measured 7.9: order 1.8 in λ; at
+  // 10 kPa λ = 1.4 mm is below dx = 25 mm, so that error is partly the
+  // discretization's).
+  const double Lc = 1.0, S = 0.8, r = 0.002, rho = 1400, q = rho * kPi * r * r * 9.81;
+  auto cable = [&](double E) {
+    RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, Lc, 40);
+    s.section = Section::circle(r);
+    s.material = {rho, E, 0.45};
+    s.shear_stretch_scale = 1e10 / E;  // EA = 1.3e4 N whatever E
+    s.clamped_root = s.clamped_tip = true;
+    auto ramp = std::make_shared<RampMotion>();
+    ramp->translation = {-(Lc - S), 0, 0};
+    ramp->duration = 1;
+    ramp->smooth = true;
+    s.tip_motion = ramp;
+    return build_batch<double>({s}, {0, 0, -9.81});
+  };
+  // the catenary: solve L = 2a sinh(S/2a) for a by bisection
+  double lo = 0.01, hi = 100;
+  for (int i = 0; i < 200; ++i) {
+    const double a = 0.5 * (lo + hi);
+    (2 * a * std::sinh(S / (2 * a)) > Lc ? lo : hi) = a;
+  }
+  const double a = 0.5 * (lo + hi), H = q * a, T = q * a * std::cosh(S / (2 * a));
+  struct Errors {
+    double h, t, lambda;
+  };
+  auto errors = [&](double E) {
+    RodBatch<double> b = cable(E);
+    StaticOptions opt;
+    opt.hold_time = 1.0;
+    const StaticResult res = solve_static(b, opt);
+    EXPECT_TRUE(res.converged) << E;
+    const std::vector<HoldReaction> h = hold_reactions(b);
+    EXPECT_EQ(h.size(), 2u);
+    const double weight = q * Lc, left = 41 * res.residual_force;
+    EXPECT_NEAR(h[0].force[2] + h[1].force[2], weight, left);
+    EXPECT_NEAR(h[0].force[0] + h[1].force[0], 0, left);
+    const double lambda = std::sqrt(E * kPi * std::pow(r, 4) / 4 / H);
+    const Errors e{std::abs(-h[0].force[0] / H - 1), std::abs(std::hypot(h[0].force[0], h[0].force[2]) / T - 1), lambda};
+    std::printf("catenary, E = %.0e Pa: H %.5f N (catenary %.5f), T %.5f N (catenary %.5f): errors %.2e, %.2e; "
+                "lambda/S = %.4f; balance to %.1e N\n",
+                E, -h[0].force[0], H, std::hypot(h[0].force[0], h[0].force[2]), T, e.h, e.t, lambda / S, left);
+    return e;
+  };
+  const Errors e1 = errors(1e5), e2 = errors(1e4);
+  EXPECT_GT(e1.h / e2.h, 2);
+  EXPECT_GT(e1.t / e2.t, 2);
+  for (const Errors& e : {e1, e2}) {
+    EXPECT_LT(e.h, 2 * e.lambda / S);
+    EXPECT_LT(e.t, 2 * e.lambda / S);
+  }
+}
