@@ -301,16 +301,9 @@ PreloadResult preload_rest_shape(RodBatch<double>& b, int threads) {
   detail::at_rest(b, f, c);
   const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, b.state.time);
   std::vector<detail::PreloadOutcome> outcome(std::size_t(b.rod_count()));
-  for (const std::vector<int>& wave : detail::static_waves(b)) {
-    std::vector<int> todo;
-    for (int r : wave)
-      if (b.rods[std::size_t(r)].preload) todo.push_back(r);
-    auto one = [&](std::size_t i) { outcome[std::size_t(todo[i])] = detail::preload_rod<kStatic>(b, todo[i], colliders, f, c); };
-    if (threads == 1 || todo.size() < 2)
-      for (std::size_t i = 0; i < todo.size(); ++i) one(i);
-    else
-      parallel_tasks(todo.size(), one);
-  }
+  detail::each_rod_in_waves(
+      b, threads, [&](int r) { return b.rods[std::size_t(r)].preload; },
+      [&](int r) { outcome[std::size_t(r)] = detail::preload_rod<kStatic>(b, r, colliders, f, c); });
   b.state.node_v = node_v;
   b.state.elem_w = elem_w;
   for (int r = 0; r < b.rod_count(); ++r) {

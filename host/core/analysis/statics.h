@@ -660,6 +660,23 @@ inline std::vector<std::vector<int>> static_waves(const RodBatch<double>& b) {
   return waves;
 }
 
+// solve(r) for each rod that take(r) picks, wave by wave (static_waves):
+// the rods of a wave at the same time on OpenMP's threads (one at a time
+// with threads == 1).
+template <class Take, class Solve>
+void each_rod_in_waves(const RodBatch<double>& b, int threads, Take&& take, Solve&& solve) {
+  for (const std::vector<int>& wave : static_waves(b)) {
+    std::vector<int> todo;
+    for (int r : wave)
+      if (take(r)) todo.push_back(r);
+    auto one = [&](std::size_t i) { solve(todo[i]); };
+    if (threads == 1 || todo.size() < 2)
+      for (std::size_t i = 0; i < todo.size(); ++i) one(i);
+    else
+      parallel_tasks(todo.size(), one);
+  }
+}
+
 }  // namespace detail
 
 // solve_static (include/manyrods/statics.h).
@@ -670,15 +687,9 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   detail::at_rest(b, f, c);
   const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, opt.hold_time);
   std::vector<detail::RodOutcome> outcome(std::size_t(b.rod_count()));
-  for (const std::vector<int>& wave : detail::static_waves(b)) {
-    auto one = [&](std::size_t i) {
-      outcome[std::size_t(wave[i])] = detail::solve_rod<kStatic>(b, wave[i], opt, f, c, &colliders);
-    };
-    if (opt.threads == 1 || wave.size() < 2)
-      for (std::size_t i = 0; i < wave.size(); ++i) one(i);
-    else
-      parallel_tasks(wave.size(), one);
-  }
+  detail::each_rod_in_waves(
+      b, opt.threads, [](int) { return true; },
+      [&](int r) { outcome[std::size_t(r)] = detail::solve_rod<kStatic>(b, r, opt, f, c, &colliders); });
   StaticResult res;
   for (int r = 0; r < b.rod_count(); ++r) {
     const detail::RodOutcome& o = outcome[std::size_t(r)];
