@@ -794,3 +794,51 @@ TEST(Statics, AHeavyCableBetweenClampsTendsToTheCatenaryAsItsBendingLayerVanishe
     EXPECT_LT(e.t, 2 * e.lambda / S);
   }
 }
+
+TEST(Statics, ACableLiftedOffAFloorByAPinnedNodeCarriesBeamTheorysLoad) {
+  // docs/validation.md "1i". A rod of the seed's section and material
+  // (shear and stretch ×100, as 1e), 0.6 m, lying on a frictionless floor
+  // (a plane collider), its ends free, so that it slides in from both
+  // sides as its middle rises (with an end clamped, the lifted arc has to
+  // stretch: its tension changes the load by 3–6 %, measured; turning
+  // about the pin is a motion of zero stiffness, which the loads do not
+  // push along); its middle node is pinned and driven up by h = 1 mm over a
+  // second, solved static at t = 1 under gravity. By symmetry the lifted node keeps zero slope, so each side is
+  // 1e's span: clamped level at height h, touching down at
+  // a = (72 EI h/q)^¼ with zero slope and moment, the floor carrying the
+  // rest (Euler–Bernoulli, independent). The pin carries 2 × 2qa/3 = 4qa/3.
+  // Asserted, as 1e: the error at n = 240 (dx = 2.5 mm) below
+  // 4 (dx/a)² + 3e-4 and the order from n = 120 to 240 above 1.5.
+  const double L = 0.6, h = 1e-3, q = kRho * kA * kA * 9.81;
+  const double a = std::pow(72 * kEI * h / q, 0.25), P = 4 * q * a / 3;
+  auto lift = [&](int n) {
+    // built lying on the floor: its centreline a contact radius above it
+    const double r = contact_radius(Section::rectangle(kA, kA));
+    RodSpec s = RodSpec::straight({0, 0, r}, {1, 0, 0}, {0, 0, 1}, L, n);
+    s.section = Section::rectangle(kA, kA);
+    s.material = {kRho, kE, kNu};
+    s.shear_stretch_scale = 100;
+    auto up = std::make_shared<RampMotion>();
+    up->translation = {0, 0, h};
+    up->duration = 1;
+    s.holds.push_back({n / 2, HoldKind::pinned, up});
+    auto b = build_batch<double>({s}, {0, 0, -9.81});
+    ContactSpec spec;
+    Collider floor;
+    floor.kind = ColliderKind::plane;
+    spec.colliders.push_back(floor);
+    set_contact(b, spec);
+    StaticOptions opt;
+    opt.hold_time = 1;
+    EXPECT_TRUE(solve_static<kNoKelvinVoigt>(b, opt).converged) << n;
+    for (const HoldReaction& hr : hold_reactions<kNoKelvinVoigt>(b))
+      if (hr.node == n / 2) return hr.force[2];
+    return 0.0;
+  };
+  const double e120 = std::abs(lift(120) / P - 1), e240 = std::abs(lift(240) / P - 1);
+  std::printf("lifted cable: pin force error %.3e (n = 120), %.3e (n = 240), order %.2f (4qa/3 = %.5f N, a = %.4f m)\n",
+              e120, e240, std::log2(e120 / e240), P, a);
+  const double dx = L / 240;
+  EXPECT_LT(e240, 4 * (dx / a) * (dx / a) + 3e-4);
+  EXPECT_GT(std::log2(e120 / e240), 1.5);
+}
