@@ -57,6 +57,9 @@ struct Layout {
   std::vector<std::int64_t> node_offsets, element_offsets;  // [rods + 1]
   std::vector<std::int32_t> rod_group;                      // [rods]
   std::vector<double> rod_width;                            // [rods]
+  // [nodes] each node's width where some rod is tapered (RodSpec::section_scale;
+  // /rods/node_width); empty: rod_width
+  std::vector<double> node_width;
   std::vector<std::string> group_names;                     // [groups]
   bool float32 = false;
   bool directors = true;
@@ -224,6 +227,7 @@ struct Output {
   std::vector<std::int64_t> node_offsets, element_offsets;
   std::vector<std::int32_t> rod_group;
   std::vector<double> rod_width;
+  std::vector<double> node_width;  // [nodes] /rods/node_width (tapered rods); empty: rod_width
   std::vector<std::string> group_names;
   std::int64_t nodes = 0;
   std::vector<EnergyRow> energy;  // [frames] (contact_work, contacts, max_penetration where the file has them)

@@ -333,6 +333,7 @@ Writer::Writer(const std::string& path, const Layout& layout, const RunInfo& inf
                          "cannot create /rods");
     write_vector(g.get(), "group", H5T_NATIVE_INT32, layout.rod_group, w.tmp);
     write_vector(g.get(), "width", H5T_NATIVE_DOUBLE, layout.rod_width, w.tmp);
+    if (!layout.node_width.empty()) write_vector(g.get(), "node_width", H5T_NATIVE_DOUBLE, layout.node_width, w.tmp);
     std::string names;
     for (std::size_t i = 0; i < layout.group_names.size(); ++i)
       names += (i ? "\n" : "") + layout.group_names[i];
@@ -850,6 +851,10 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   if (std::int64_t(o.rod_group.size()) + 1 != std::int64_t(o.node_offsets.size()) ||
       o.rod_width.size() != o.rod_group.size())
     fail(path, "/rods/group and /rods/width do not have one entry per rod");
+  if (H5Lexists(f, "rods/node_width", H5P_DEFAULT) > 0) {
+    o.node_width = read_vector<double>(f, "rods/node_width", H5T_NATIVE_DOUBLE, path);
+    if (std::int64_t(o.node_width.size()) != o.nodes) fail(path, "/rods/node_width does not have one entry per node");
+  }
   {
     const Id g = checked(H5Gopen2(f, "rods", H5P_DEFAULT), H5Gclose, path, "cannot open /rods");
     std::stringstream ss(read_attr_string(g.get(), "group_names", path, "/rods."));

@@ -119,6 +119,22 @@ h5::Layout frame_layout(const RodBatch<T>& b, std::vector<std::int32_t> rod_grou
     l.node_offsets.push_back(l.node_offsets.back() + b.elements(r) + 1);
     l.element_offsets.push_back(l.element_offsets.back() + b.elements(r));
   }
+  // tapered rods: each node's width, its elements' mean (2 × the element's
+  // contact radius, the circle's diameter), the others' rod_width
+  bool tapered = false;
+  for (const RodInfo& r : b.rods) tapered = tapered || !r.section_scale.empty();
+  if (tapered)
+    for (int r = 0; r < b.rod_count(); ++r) {
+      const RodInfo& info = b.rods[std::size_t(r)];
+      for (int j = 0; j <= info.elements; ++j) {
+        if (info.section_scale.empty()) {
+          l.node_width.push_back(rod_width[std::size_t(r)]);
+          continue;
+        }
+        const int e0 = std::max(0, j - 1), e1 = std::min(info.elements - 1, j);
+        l.node_width.push_back(info.element_radius(e0) + info.element_radius(e1));
+      }
+    }
   l.rod_group = std::move(rod_group);
   l.rod_width = std::move(rod_width);
   l.group_names = std::move(group_names);

@@ -65,8 +65,8 @@ void write_topology(std::ostream& out, const h5::Output& o, const std::vector<in
   out << "]\n        float[] widths = [";
   bool first = true;
   for (int r : members)
-    for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j) {
-      out << (first ? "" : ", ") << o.rod_width[r];
+    for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j) {  // (a tapered rod: its node's own)
+      out << (first ? "" : ", ") << (o.node_width.empty() ? o.rod_width[r] : o.node_width[std::size_t(j)]);
       first = false;
     }
   out << "] (\n            interpolation = \"vertex\"\n        )\n";
@@ -76,8 +76,12 @@ void write_topology(std::ostream& out, const h5::Output& o, const std::vector<in
 // box padded by half the widest section, per time sample.
 void write_extent(std::ostream& out, const h5::Output& o, const std::vector<int>& members,
                   const std::vector<std::int64_t>& frames, const Frames& pos) {
-  double pad = 0;
-  for (int r : members) pad = std::max(pad, 0.5 * o.rod_width[r]);
+  double pad = 0;  // (OpenUSD pads by half the widest width)
+  for (int r : members)
+    if (o.node_width.empty())
+      pad = std::max(pad, 0.5 * o.rod_width[r]);
+    else
+      for (std::int64_t j = o.node_offsets[r]; j < o.node_offsets[r + 1]; ++j) pad = std::max(pad, 0.5 * o.node_width[std::size_t(j)]);
   out << "        float3[] extent.timeSamples = {\n";
   for (std::size_t k = 0; k < frames.size(); ++k) {
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
