@@ -553,13 +553,23 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
     }
   };
   // Newton at load fraction lam: true when the update falls below the tolerance.
+  // A warm rod (a re-solve after its holds moved: near its solution, where
+  // J hardly changes) keeps its Jacobian from one iteration to the next
+  // while the updates shrink at least fourfold (chord steps: a residual
+  // costs a 60th of the finite-difference J); it takes a fresh one at the
+  // first iteration, when the updates stall, and before a failed solve is
+  // diagnosed. Other rods take a fresh one every iteration (Newton).
   auto newton = [&](double lam, int& iterations) {
     iterations = 0;
+    double last = 0, before = 0;  // this increment's last two updates
     for (int it = 0; it < opt.max_newton_iterations; ++it) {
       const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, where(lam));
       if (!r0.allFinite()) return false;
-      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(lam));
-      regularize_spin(J, nn);
+      bool fresh = !warm || it == 0 || (it >= 2 && !(last < 0.25 * before));
+      if (fresh) {
+        banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(lam));
+        regularize_spin(J, nn);
+      }
       // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
       // by banded LU with partial pivoting (solve_banded); where J is
       // singular or nearly so the LU's solution does not solve the system,
@@ -568,7 +578,17 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       // energy: a free rod in gravity, a pendulum off its vertical) has
       // no Newton step: the rod is a mechanism under its loads.
       Eigen::VectorXd dq;
-      if (!solve_banded(J, -r0, dq) || (J.times(dq) + r0).norm() > 1e-8 * (r0.norm() + J.B.norm() * dq.norm())) {
+      auto solved = [&] {
+        return solve_banded(J, -r0, dq) && (J.times(dq) + r0).norm() <= 1e-8 * (r0.norm() + J.B.norm() * dq.norm());
+      };
+      bool ok = solved();
+      if (!ok && !fresh) {  // a kept Jacobian: take a fresh one before judging
+        banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(lam));
+        regularize_spin(J, nn);
+        fresh = true;
+        ok = solved();
+      }
+      if (!ok) {
         const Eigen::MatrixXd A = J.dense();
         if (singular_against(A, r0, out.zero_modes)) {
           out.mechanism = true;
@@ -585,9 +605,11 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       apply_dofs(b, d, dq);
       ++iterations;
       // converged: below the tolerance, or at the round-off floor (a small
-      // update that no longer shrinks: Newton's would, quadratically)
-      const bool floor = upd < 1e-8 && iterations > 1 && upd > 0.5 * out.last_update;
-      out.last_update = upd;
+      // update that no longer shrinks with a fresh Jacobian: Newton's would,
+      // quadratically)
+      const bool floor = upd < 1e-8 && iterations > 1 && fresh && upd > 0.5 * out.last_update;
+      before = last;
+      last = out.last_update = upd;
       if (upd < opt.tolerance || floor) return true;
     }
     return false;
