@@ -579,6 +579,15 @@ struct Touchdown {
   double force, moment, span;
   StaticResult result;
 };
+// A frictionless floor through the origin, normal +z (a plane collider).
+void on_a_floor(RodBatch<double>& b) {
+  ContactSpec spec;
+  Collider floor;
+  floor.kind = ColliderKind::plane;
+  spec.colliders.push_back(floor);
+  set_contact(b, spec);
+}
+
 Touchdown touchdown(int n, double h) {
   RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, kL, n);
   s.section = Section::rectangle(kA, kA);
@@ -588,11 +597,7 @@ Touchdown touchdown(int n, double h) {
   auto b = build_batch<double>({s}, {0, 0, -9.81});
   const double r = b.rods[0].contact_radius;
   for (int j = 0; j <= n; ++j) b.state.node_x[2][b.node_index(0, j)] = r + h;
-  ContactSpec spec;
-  Collider floor;
-  floor.kind = ColliderKind::plane;
-  spec.colliders.push_back(floor);
-  set_contact(b, spec);
+  on_a_floor(b);
   StaticOptions opt;
   opt.load_steps = 20;
   Touchdown out{};
@@ -823,11 +828,7 @@ TEST(Statics, ACableLiftedOffAFloorByAPinnedNodeCarriesBeamTheorysLoad) {
     up->duration = 1;
     s.holds.push_back({n / 2, HoldKind::pinned, up});
     auto b = build_batch<double>({s}, {0, 0, -9.81});
-    ContactSpec spec;
-    Collider floor;
-    floor.kind = ColliderKind::plane;
-    spec.colliders.push_back(floor);
-    set_contact(b, spec);
+    on_a_floor(b);
     StaticOptions opt;
     opt.hold_time = 1;
     EXPECT_TRUE(solve_static<kNoKelvinVoigt>(b, opt).converged) << n;
