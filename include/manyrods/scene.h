@@ -221,6 +221,16 @@ StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const 
 // the rest shapes of the rods with RodSpec::preload, so that they stand as
 // built; build_scene_batch calls it for groups with preload = true).
 PreloadResult scene_preload(RodBatch<double>& b, const StepChoice& c);
+// The rest strains and curvatures of `from` (a double batch of the same
+// rods: a preload solved in double) into b.
+template <class T>
+void copy_rest_shape(const RodBatch<double>& from, RodBatch<T>& b) {
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < b.slots(); ++k) {
+      b.model.elem_rest_strain[a][k] = T(from.model.elem_rest_strain[a][k]);
+      b.model.vor_rest_curvature[a][k] = T(from.model.vor_rest_curvature[a][k]);
+    }
+}
 // A preload without a rest shape, in words (the rod as static_failure names it).
 std::string preload_failure(const PreloadResult& r, const RodBatch<double>& b, const Scene* s = nullptr);
 // hold_reactions<Terms>(b) with the choice's terms.

@@ -82,11 +82,7 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
   PreloadOutcome out;
   const RodInfo& rod = b.rods[std::size_t(r)];
   const int n = rod.elements, o = rod.offset;
-  RodDofs d;
-  for (int j = 0; j <= n; ++j)
-    if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
-  for (int e = 0; e < n; ++e)
-    if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
+  const RodDofs d = rod_dofs(b, r);
   const int m = d.size(), nn = 3 * int(d.node_slots.size());
   if (m == 0) return out;  // every unknown held: nothing to balance
 

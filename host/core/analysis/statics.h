@@ -133,6 +133,17 @@ Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::arra
   return res;
 }
 
+// Rod r's unknowns: its free nodes and its free elements (a clamped
+// interior node holds the frames on either side).
+inline RodDofs rod_dofs(const RodBatch<double>& b, int r) {
+  RodDofs d;
+  for (int j = 0; j <= b.elements(r); ++j)
+    if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
+  for (int e = 0; e < b.elements(r); ++e)
+    if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
+  return d;
+}
+
 inline void apply_dofs(RodBatch<double>& b, const RodDofs& d, const Eigen::VectorXd& dx) {
   int i = 0;
   for (int k : d.node_slots)
@@ -491,13 +502,9 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
   RodOutcome out;
   const RodInfo& rod = b.rods[std::size_t(r)];
   const int n = rod.elements, o = rod.offset;
-  RodDofs d;
+  const RodDofs d = rod_dofs(b, r);
   double length = 0;
   for (int e = 0; e < n; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
-  for (int j = 0; j <= n; ++j)
-    if (b.model.node_inv_mass[b.node_index(r, j)] != 0) d.node_slots.push_back(b.node_index(r, j));
-  for (int e = 0; e < n; ++e)  // (a clamped interior node holds the frames on either side)
-    if (b.model.elem_inv_inertia[0][b.elem_index(r, e)] != 0) d.elem_slots.push_back(b.elem_index(r, e));
   const std::vector<HoldPath> paths = hold_paths(b, r, opt.hold_time);
   const int m = d.size(), nn = 3 * int(d.node_slots.size());
   if (m == 0) {  // every unknown held: only the holds move

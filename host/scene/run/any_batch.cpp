@@ -208,11 +208,7 @@ PreloadResult AnyBatch::preload() {
   d.state.time = b.state.time;
   const PreloadResult r = scene_preload(d, choice_);
   if (!r.ok) throw InputError(preload_failure(r, d, scene_.get()));
-  for (int a = 0; a < 3; ++a)
-    for (int k = 0; k < b.slots(); ++k) {
-      b.model.elem_rest_strain[a][k] = float(d.model.elem_rest_strain[a][k]);
-      b.model.vor_rest_curvature[a][k] = float(d.model.vor_rest_curvature[a][k]);
-    }
+  copy_rest_shape(d, b);
   return r;
 }
 

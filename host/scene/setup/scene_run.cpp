@@ -330,12 +330,7 @@ void give_preload(const Scene& s, const StepChoice& choice, RodBatch<T>& b) {
     const PreloadResult r = scene_preload(b, choice);
     if (!r.ok) throw SceneError(s.source + ": " + preload_failure(r, b, &s));
   } else {
-    const RodBatch<double> d = build_scene_batch<double>(s, false);
-    for (int a = 0; a < 3; ++a)
-      for (int k = 0; k < b.slots(); ++k) {
-        b.model.elem_rest_strain[a][k] = T(d.model.elem_rest_strain[a][k]);
-        b.model.vor_rest_curvature[a][k] = T(d.model.vor_rest_curvature[a][k]);
-      }
+    copy_rest_shape(build_scene_batch<double>(s, false), b);
   }
 }
 
