@@ -843,3 +843,113 @@ TEST(Statics, ACableLiftedOffAFloorByAPinnedNodeCarriesBeamTheorysLoad) {
   EXPECT_LT(e240, 4 * (dx / a) * (dx / a) + 3e-4);
   EXPECT_GT(std::log2(e120 / e240), 1.5);
 }
+
+TEST(Statics, TwoClampedBeamsCrossedAtTheirMiddlesShareTheLoadAsBeamTheorySays) {
+  // docs/validation.md "1j". Rod–rod contact in the static solve: two
+  // clamped–clamped round beams of length L = 0.1 m (r = 1 mm, ρ = 250,
+  // shear and stretch ×100: Euler–Bernoulli beams), crossed at right
+  // angles at their middles, the upper one (E) resting on the lower one
+  // (4E) at the crossing, both under gravity. Independent reference (beam
+  // theory, small deflection): each beam's midspan deflects under its own
+  // weight qL⁴/384EI and a point load P at the middle, PL³/192EI, up on
+  // the upper beam and down on the lower; the two middles move together,
+  // apart by the overlap o that the contact law carries P at,
+  // o = √(2δP/k) (k = EA/ℓ of the upper beam's element, δ = r/10:
+  // docs/model.md "Rod–rod contact"), so with a = qL⁴/384EI,
+  //   a − x = a/4 + x/4 + o,  x = PL³/192EI  ⇒  P = (0.6 a − 0.8 o)·192EI/L³,
+  // solved for P with o(P) by fixed point (P → 0.3 qL as o → 0). P is read
+  // from the upper beam's clamps: its weight less what they carry.
+  // Asserted: the error at n = 41 below 4 (dx/L)² + 2e-4 (the discrete
+  // beam's O(dx²), measured 3.8 (dx/L)², plus the large-deflection and
+  // shear effects, estimated 7e-5 and 4e-5 at a/r = 0.026 from runs at
+  // four times the weight and without the shear stiffening); the order from
+  // n = 21 to 41 above 1.5; the lower beam's clamps carry its weight plus
+  // P, to the solve's residual (the push is one force on both rods).
+  const double L = 0.1, r = 0.001, E = 1e8, rho = 250, ss = 100;
+  const double q = rho * kPi * r * r * 9.81, EI = E * kPi * std::pow(r, 4) / 4, a = q * std::pow(L, 4) / (384 * EI);
+  auto crossing = [&](int n) {
+    RodSpec up = RodSpec::straight({0, 0, 2 * r}, {1, 0, 0}, {0, 0, 1}, L, n);
+    up.section = Section::circle(r);
+    up.material = {rho, E, 0.3};
+    up.clamped_root = up.clamped_tip = true;
+    up.shear_stretch_scale = ss;
+    RodSpec low = RodSpec::straight({L / 2, -L / 2, 0}, {0, 1, 0}, {0, 0, 1}, L, n);
+    low.section = Section::circle(r);
+    low.material = {rho, 4 * E, 0.3};
+    low.clamped_root = low.clamped_tip = true;
+    low.shear_stretch_scale = ss;
+    auto b = build_batch<double>({up, low}, {0, 0, -9.81});
+    ContactSpec spec;
+    spec.rod_rod = true;
+    set_contact(b, spec);
+    const StaticResult res = solve_static<kNoKelvinVoigt>(b);
+    EXPECT_TRUE(res.converged) << n;
+    double held[2] = {0, 0};
+    for (const HoldReaction& h : hold_reactions<kNoKelvinVoigt>(b)) held[h.rod] += h.force[2];
+    const double P = q * L - held[0];
+    EXPECT_NEAR(held[1], q * L + P, 2 * (n + 1) * res.residual_force) << n;
+    // the reference with the overlap at P
+    const double k = ss * E * kPi * r * r / (L / n), delta = 0.1 * r;
+    double ref = 0.3 * q * L;
+    for (int i = 0; i < 50; ++i) ref = (0.6 * a - 0.8 * std::sqrt(2 * delta * ref / k)) * 192 * EI / (L * L * L);
+    const double err = std::abs(P / ref - 1);
+    std::printf("crossed beams, n = %d: P = %.6e N, beam theory %.6e N (0.3 qL = %.6e N): error %.3e\n", n, P, ref,
+                0.3 * q * L, err);
+    return err;
+  };
+  const double e21 = crossing(21), e41 = crossing(41);
+  std::printf("crossed beams: order %.2f\n", std::log2(e21 / e41));
+  EXPECT_LT(e41, 4 * std::pow(1.0 / 41, 2) + 2e-4);
+  EXPECT_GT(std::log2(e21 / e41), 1.5);
+}
+
+TEST(Statics, AFoldedCableRestsOnItselfWithSelfContactAndFallsThroughWithout) {
+  // Self contact in the static solve: a cable (r = 4 mm) built folded as a
+  // hairpin in a horizontal plane — two 0.5 m legs 2r apart joined by a
+  // half circle — clamped at both ends side by side, gravity across the
+  // legs (−y), so that the upper leg comes to lie on the lower one.
+  // Regression of behaviour, with an independent bound: with self contact
+  // the solve converges, the facing nodes of the two legs stay at least
+  // 2r less the deepest overlap apart (contact_stats, below r/100: a
+  // penalty overlap, not a pass), upper above lower; without it the upper
+  // leg sinks through the lower one (the same solve, the legs crossed).
+  const double r = 0.004, leg = 0.5;
+  const int nl = 25, nc = 8;
+  std::vector<Vec3> nodes;
+  for (int i = 0; i <= nl; ++i) nodes.push_back({leg * i / nl, r, 0});
+  for (int i = 1; i < nc; ++i) nodes.push_back({leg + r * std::sin(kPi * i / nc), r * std::cos(kPi * i / nc), 0});
+  for (int i = 0; i <= nl; ++i) nodes.push_back({leg - leg * i / nl, -r, 0});
+  const int last = int(nodes.size()) - 1;
+  auto fold = [&](bool self) {
+    RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, 1.0, last);
+    s.nodes = nodes;
+    s.frames = RodSpec::parallel_transport_frames(nodes, {0, 0, 1});
+    s.rest_curvature.clear();  // (the rest shape: the fold as built)
+    s.section = Section::circle(r);
+    s.material = {1400, 5e7, 0.45};
+    s.clamped_root = s.clamped_tip = true;
+    auto b = build_batch<double>({s}, {0, -9.81, 0});
+    ContactSpec spec;
+    spec.self = self;
+    set_contact(b, spec);
+    EXPECT_TRUE(solve_static<kNoKelvinVoigt>(b).converged) << self;
+    // the facing nodes' distance, negative where the upper leg is below
+    double apart = 1e9;
+    for (int j = 1; j < nl; ++j) {
+      const Vec3 u = b.position(0, j), l = b.position(0, last - j);
+      apart = std::min(apart, std::hypot(u[0] - l[0], u[1] - l[1], u[2] - l[2]) * (u[1] > l[1] ? 1 : -1));
+    }
+    const ContactStats st = contact_stats(b);
+    std::printf("folded cable, self contact %d: facing nodes at least %.5f m apart (2r = %.4f m), %lld contacts, "
+                "deepest overlap %.2e m\n", int(self), apart, 2 * r, static_cast<long long>(st.contacts), st.max_penetration);
+    if (self) {
+      EXPECT_GT(st.contacts, 0);
+      EXPECT_LT(st.max_penetration, 0.01 * r);
+      EXPECT_GT(apart, 2 * r - st.max_penetration - 1e-12);
+    } else {
+      EXPECT_LT(apart, 0);
+    }
+  };
+  fold(true);
+  fold(false);
+}

@@ -25,6 +25,10 @@
 #include <cmath>
 #include <vector>
 
+#include <Eigen/SparseCore>
+#include <Eigen/SparseLU>
+
+#include "host/core/analysis/static_contact.h"
 #include "host/core/step/contact_stage.h"
 #include "host/core/step/diagnostics.h"
 #include "manyrods/statics.h"
@@ -436,6 +440,7 @@ struct RodOutcome {
   int worst_node = -1, zero_modes = 0;
   bool mechanism = false;
   bool warm = false;  // started in equilibrium under the full loads
+  int rod = -1;       // the rod with the largest residual force (of a group)
 };
 
 // The largest |force| on a free node and |couple| on a free element of the
@@ -493,123 +498,358 @@ inline bool singular_against(const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
 // take about a second).
 inline constexpr int kDenseDiagnosis = 1500;
 
-// Rod `r` to static equilibrium (solve_static's method, one rod): Newton at
-// each load fraction λ, increments adapted (halved where Newton fails,
-// doubled up to 1/load_steps where it converges in a few iterations).
+// A group of rods solved together (rods that touch each other: rod–rod
+// contact couples their unknowns; static_contact.h contact_groups): each
+// rod's unknowns (RodDofs) stacked in the group's order.
+struct GroupDofs {
+  std::vector<int> rods;
+  std::vector<RodDofs> d;
+  std::vector<int> start;      // rod i's first unknown; start.back(): all of them
+  std::vector<Segment> seg;    // rod i's kernel blocks (rod_blocks)
+  std::vector<double> length;  // rod i's rest length
+  std::vector<std::vector<int>> node_row;  // rod i's node j → the row of its x (−1: held)
+  bool contact = false;        // its rods meet each other or themselves (static_rod_contact)
+  int size() const { return start.back(); }
+  int index_of(int rod) const {  // the group's index of `rod`
+    return rods.size() == 1 ? 0 : int(std::lower_bound(rods.begin(), rods.end(), rod) - rods.begin());
+  }
+  // the row of node slot k of rod `rod` (−1: held)
+  int row(const RodBatch<double>& b, int rod, int k) const {
+    const int i = index_of(rod);
+    return node_row[std::size_t(i)][std::size_t(k - b.rods[std::size_t(rod)].offset - 1)];
+  }
+};
+
+inline GroupDofs group_dofs(const RodBatch<double>& b, const std::vector<int>& rods, bool contact) {
+  GroupDofs g;
+  g.rods = rods;
+  g.contact = contact;
+  g.start.push_back(0);
+  for (int r : rods) {
+    const RodInfo& rod = b.rods[std::size_t(r)];
+    g.d.push_back(rod_dofs(b, r));
+    g.start.push_back(g.start.back() + g.d.back().size());
+    g.seg.push_back(rod_blocks(rod));
+    double length = 0;
+    for (int e = 0; e < rod.elements; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
+    g.length.push_back(length);
+    std::vector<int> rows(std::size_t(rod.elements + 1), -1);
+    const RodDofs& d = g.d.back();
+    for (std::size_t i = 0; i < d.node_slots.size(); ++i)
+      rows[std::size_t(d.node_slots[i] - rod.offset - 1)] = g.start[g.start.size() - 2] + 3 * int(i);
+    g.node_row.push_back(std::move(rows));
+  }
+  return g;
+}
+
+// The residual of group g at load fraction lam: each rod's (static_residual
+// over its blocks, with the colliders) stacked, plus the rod–rod and self
+// contacts' push (static_contact.h pair_push) on the free nodes. touching
+// (if given) receives the pairs that push; rod_scale (if given) each rod's
+// largest |force| and |couple| on its slots, held ones included.
 template <Terms kT>
-RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::array<Array<double>, 3>& f,
-                     std::array<Array<double>, 3>& c, const std::vector<ColliderFrame<double>>* colliders) {
+Eigen::VectorXd group_residual(RodBatch<double>& b, const GroupDofs& g, std::array<Array<double>, 3>& f,
+                               std::array<Array<double>, 3>& c, double lam,
+                               const std::vector<ColliderFrame<double>>* colliders,
+                               std::vector<ElementPair>* touching = nullptr,
+                               std::vector<std::array<double, 2>>* rod_scale = nullptr) {
+  Eigen::VectorXd res(g.size());
+  if (rod_scale) rod_scale->assign(g.rods.size(), {0.0, 0.0});
+  for (std::size_t i = 0; i < g.rods.size(); ++i) {
+    const int r = g.rods[i];
+    res.segment(g.start[i], g.d[i].size()) = static_residual<kT>(b, g.d[i], f, c, ResidualAt{&g.seg[i], lam, colliders, r});
+    if (!rod_scale) continue;
+    const RodInfo& rod = b.rods[std::size_t(r)];
+    for (int k = rod.offset; k < rod.offset + rod.elements + 2; ++k) {
+      (*rod_scale)[i][0] = std::max((*rod_scale)[i][0], std::sqrt(f[0][k] * f[0][k] + f[1][k] * f[1][k] + f[2][k] * f[2][k]));
+      (*rod_scale)[i][1] = std::max((*rod_scale)[i][1], std::sqrt(c[0][k] * c[0][k] + c[1][k] * c[1][k] + c[2][k] * c[2][k]));
+    }
+  }
+  if (touching) touching->clear();
+  if (g.contact) {
+    for (const ElementPair& p : touching_pairs(b, g.rods, 0.0)) {
+      vec3<double> push[4];
+      if (!pair_push(b, p, push)) continue;
+      if (touching) touching->push_back(p);
+      const std::array<int, 4> nodes = pair_nodes(p);
+      for (int a = 0; a < 4; ++a) {
+        const int row = g.row(b, b.contact.elem_rod[a < 2 ? p.lo : p.hi], nodes[std::size_t(a)]);
+        if (row < 0) continue;
+        for (int x = 0; x < 3; ++x) res[row + x] += (&push[a].x)[x];
+      }
+    }
+  }
+  return res;
+}
+
+// The touching pairs' part of the group's Jacobian, as triplets: central
+// differences of each pair's push (pair_push) in its four nodes' positions,
+// steps of 1e-3 δ (δ: the law's smooth width, 0.1 × the smaller radius),
+// so that a stencil stays within the law's pieces at the overlaps statics
+// reaches (docs/model.md "Rod–rod contact").
+inline void contact_jacobian(RodBatch<double>& b, const GroupDofs& g, const std::vector<ElementPair>& pairs,
+                             std::vector<Eigen::Triplet<double>>& out) {
+  for (const ElementPair& p : pairs) {
+    const std::array<int, 4> nodes = pair_nodes(p);
+    int rows[4];
+    for (int a = 0; a < 4; ++a) rows[a] = g.row(b, b.contact.elem_rod[a < 2 ? p.lo : p.hi], nodes[std::size_t(a)]);
+    const double h = 1e-4 * std::min(b.contact.elem_radius[p.lo], b.contact.elem_radius[p.hi]);
+    for (int a = 0; a < 4; ++a) {
+      if (rows[a] < 0) continue;
+      for (int x = 0; x < 3; ++x) {
+        double& xa = b.state.node_x[x][nodes[std::size_t(a)]];
+        const double keep = xa;
+        vec3<double> fp[4], fm[4];
+        xa = keep + h;
+        pair_push(b, p, fp);
+        xa = keep - h;
+        pair_push(b, p, fm);
+        xa = keep;
+        for (int o = 0; o < 4; ++o) {
+          if (rows[o] < 0) continue;
+          for (int y = 0; y < 3; ++y) out.emplace_back(rows[o] + y, rows[a] + x, ((&fp[o].x)[y] - (&fm[o].x)[y]) / (2 * h));
+        }
+      }
+    }
+  }
+}
+
+// Rods `rods` to static equilibrium together (solve_static's method): Newton
+// at each load fraction λ, increments adapted (halved where Newton fails,
+// doubled up to 1/load_steps where it converges in a few iterations). A
+// rod alone (no contacts with itself) solves its banded Jacobian
+// (solve_banded); rods that touch, or a rod touching itself, solve the
+// group's sparse Jacobian — each rod's band plus the touching pairs'
+// blocks (contact_jacobian) — by sparse LU.
+template <Terms kT>
+RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const StaticOptions& opt,
+                       std::array<Array<double>, 3>& f, std::array<Array<double>, 3>& c,
+                       const std::vector<ColliderFrame<double>>* colliders) {
   RodOutcome out;
-  const RodInfo& rod = b.rods[std::size_t(r)];
-  const int n = rod.elements, o = rod.offset;
-  const RodDofs d = rod_dofs(b, r);
-  double length = 0;
-  for (int e = 0; e < n; ++e) length += b.model.elem_rest_length[b.elem_index(r, e)];
-  const std::vector<HoldPath> paths = hold_paths(b, r, opt.hold_time);
-  const int m = d.size(), nn = 3 * int(d.node_slots.size());
+  const GroupDofs g = group_dofs(b, rods, static_rod_contact(b));
+  const std::size_t nr = rods.size();
+  std::vector<HoldPath> paths;
+  for (int r : rods) {
+    const std::vector<HoldPath> p = hold_paths(b, r, opt.hold_time);
+    paths.insert(paths.end(), p.begin(), p.end());
+  }
+  const int m = g.size();
   if (m == 0) {  // every unknown held: only the holds move
     place_holds(b, paths, 1);
     return out;
   }
-  const Segment seg = rod_blocks(rod);
-  // Warm: the rod is already in equilibrium under its full loads (a solve
-  // before this one; its holds may have moved since): the loads stay full
-  // and only the holds walk, the whole way in the first increment. Told by
-  // the residual at full load, with the holds where they are: its forces
-  // below 1e-6 of the largest force on a node of the rod (held ones
-  // included: they carry the reactions) or of an external one, and its
-  // couples likewise against the couples on the rod's elements.
-  bool warm = false;
+  // Warm: the rods are already in equilibrium under their full loads (a
+  // solve before this one; their holds may have moved since): the loads
+  // stay full and only the holds walk, the whole way in the first
+  // increment. Told by the residual at full load, with the holds where
+  // they are: for each rod, its forces below 1e-6 of the largest force on
+  // a node of the rod (held ones included: they carry the reactions) or of
+  // an external one, and its couples likewise against the couples on the
+  // rod's elements.
+  bool warm = true;
   {
-    const ResidualAt full{&seg, 1.0, colliders, r};
-    const Eigen::VectorXd r1 = static_residual<kT>(b, d, f, c, full);
-    double scale[2] = {0, 0}, left[2] = {0, 0};  // forces, couples
-    auto size3 = [](const std::array<Array<double>, 3>& v, int k) {
-      return std::sqrt(v[0][k] * v[0][k] + v[1][k] * v[1][k] + v[2][k] * v[2][k]);
-    };
-    for (int k = o; k < o + n + 2; ++k) scale[0] = std::max(scale[0], size3(f, k)), scale[1] = std::max(scale[1], size3(c, k));
-    (void)static_residual<kT>(b, d, f, c, ResidualAt{&seg, 0.0, colliders, r});  // (the internal part)
-    const int nodes = int(d.node_slots.size());
-    for (int i = 0; i < d.size() / 3; ++i) {
-      const int k = i < nodes ? d.node_slots[std::size_t(i)] : d.elem_slots[std::size_t(i - nodes)];
-      const std::array<Array<double>, 3>& internal = i < nodes ? f : c;
-      const Eigen::Vector3d all = r1.segment(3 * i, 3);
-      const Eigen::Vector3d ext = all - Eigen::Vector3d(internal[0][k], internal[1][k], internal[2][k]);
-      scale[i < nodes ? 0 : 1] = std::max(scale[i < nodes ? 0 : 1], ext.norm());
-      left[i < nodes ? 0 : 1] = std::max(left[i < nodes ? 0 : 1], all.norm());
+    std::vector<std::array<double, 2>> scale;
+    const Eigen::VectorXd r1 = group_residual<kT>(b, g, f, c, 1.0, colliders, nullptr, &scale);
+    const Eigen::VectorXd ext = r1 - group_residual<kT>(b, g, f, c, 0.0, colliders);
+    for (std::size_t i = 0; i < nr; ++i) {
+      double left[2] = {0, 0};
+      const int nodes = int(g.d[i].node_slots.size());
+      for (int j = 0; j < g.d[i].size() / 3; ++j) {
+        const int at = g.start[i] + 3 * j, kind = j < nodes ? 0 : 1;
+        scale[i][std::size_t(kind)] = std::max(scale[i][std::size_t(kind)], ext.segment(at, 3).norm());
+        left[kind] = std::max(left[kind], r1.segment(at, 3).norm());
+      }
+      warm = warm && left[0] <= 1e-6 * scale[i][0] && left[1] <= 1e-6 * scale[i][1];
     }
-    warm = left[0] <= 1e-6 * scale[0] && left[1] <= 1e-6 * scale[1];
   }
   out.warm = warm;
-  auto where = [&](double lam) { return ResidualAt{&seg, warm ? 1.0 : lam, colliders, r}; };
-  BandedJacobian J;
-  J.plan(d, o);  // (cells count from the rod's first slot)
-  // the rod's state at the last load fraction reached (its slots o … o + n + 1)
-  std::vector<double> saved(std::size_t(12 * (n + 2)));
+  auto loads = [&](double lam) { return warm ? 1.0 : lam; };  // (a warm group's loads stay full)
+  auto residual = [&](double lam, std::vector<ElementPair>* touching = nullptr) {
+    return group_residual<kT>(b, g, f, c, loads(lam), colliders, touching);
+  };
+  std::vector<BandedJacobian> J(nr);
+  for (std::size_t i = 0; i < nr; ++i) J[i].plan(g.d[i], b.rods[std::size_t(rods[i])].offset);  // (cells count from the rod's first slot)
+  // the coupled system (rods that touch): its matrix and factorization
+  Eigen::SparseMatrix<double> A;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
+  bool coupled = false;
+  std::vector<ElementPair> touching;
+  // J at load fraction lam, with the pairs touching there: each rod's
+  // band, and, where rods touch, the sparse matrix and its LU
+  auto jacobian = [&](double lam) {
+    for (std::size_t i = 0; i < nr; ++i) {
+      const ResidualAt at{&g.seg[i], loads(lam), colliders, rods[i]};
+      banded_jacobian<kT>(b, g.d[i], f, c, g.length[i], 1e-6, J[i], at);
+      regularize_spin(J[i], 3 * int(g.d[i].node_slots.size()));
+    }
+    coupled = !touching.empty();  // (rods that do not touch: each its own band)
+    if (!coupled) return true;
+    std::vector<Eigen::Triplet<double>> t;
+    constexpr int w = BandedJacobian::w;
+    for (std::size_t i = 0; i < nr; ++i) {
+      const int rows = int(J[i].B.rows());
+      for (int ii = 0; ii < rows; ++ii)
+        for (int jj = std::max(0, ii - w); jj <= std::min(rows - 1, ii + w); ++jj)
+          if (const double v = J[i].B(ii, jj - ii + w); v != 0)
+            t.emplace_back(g.start[i] + J[i].order[std::size_t(ii)], g.start[i] + J[i].order[std::size_t(jj)], v);
+    }
+    contact_jacobian(b, g, touching, t);
+    A.resize(m, m);
+    A.setFromTriplets(t.begin(), t.end());
+    lu.compute(A);
+    return lu.info() == Eigen::Success;
+  };
+  auto dense = [&]() -> Eigen::MatrixXd {
+    if (coupled) return Eigen::MatrixXd(A);
+    Eigen::MatrixXd D = Eigen::MatrixXd::Zero(m, m);
+    for (std::size_t i = 0; i < nr; ++i) D.block(g.start[i], g.start[i], g.d[i].size(), g.d[i].size()) = J[i].dense();
+    return D;
+  };
+  // the rods' state at the last load fraction reached (their slots o … o + n + 1)
+  std::vector<double> saved;
   auto keep = [&](bool save) {
     std::size_t i = 0;
     auto move = [&](double& x) {
-      if (save)
+      if (save) {
+        if (i == saved.size()) saved.push_back(0);
         saved[i++] = x;
-      else
+      } else {
         x = saved[i++];
+      }
     };
-    for (int k = o; k < o + n + 2; ++k) {
-      for (int a = 0; a < 3; ++a) move(b.state.node_x[a][k]);
-      for (int a = 0; a < 9; ++a) move(b.state.elem_Q[a][k]);
+    for (int r : rods)
+      for (int k = b.rods[std::size_t(r)].offset; k < b.rods[std::size_t(r)].offset + b.rods[std::size_t(r)].elements + 2; ++k) {
+        for (int a = 0; a < 3; ++a) move(b.state.node_x[a][k]);
+        for (int a = 0; a < 9; ++a) move(b.state.elem_Q[a][k]);
+      }
+  };
+  // the largest update of a rod: |Δx|/L over its free nodes, |Δφ| over its elements
+  auto update_size = [&](const Eigen::VectorXd& dq) {
+    double upd = 0;
+    for (std::size_t i = 0; i < nr; ++i) {
+      const int nn = 3 * int(g.d[i].node_slots.size()), mi = g.d[i].size();
+      if (nn > 0) upd = std::max(upd, dq.segment(g.start[i], nn).cwiseAbs().maxCoeff() / g.length[i]);
+      if (mi > nn) upd = std::max(upd, dq.segment(g.start[i] + nn, mi - nn).cwiseAbs().maxCoeff());
     }
+    return upd;
   };
   // Newton at load fraction lam: true when the update falls below the tolerance.
-  // A warm rod (a re-solve after its holds moved: near its solution, where
+  // A warm group (a re-solve after its holds moved: near its solution, where
   // J hardly changes) keeps its Jacobian from one iteration to the next
   // while the updates shrink at least fourfold (chord steps: a residual
   // costs a 60th of the finite-difference J); it takes a fresh one at the
-  // first iteration, when the updates stall, and before a failed solve is
-  // diagnosed. Other rods take a fresh one every iteration (Newton).
+  // first iteration, when the updates stall, when the pairs in touch
+  // change (keeping the rods' bands then made the re-solves of a harness
+  // slower), and before a failed solve is diagnosed. Other groups take a
+  // fresh one every iteration (Newton).
   auto newton = [&](double lam, int& iterations) {
     iterations = 0;
     double last = 0, before = 0;  // this increment's last two updates
+    std::vector<ElementPair> now;
+    auto same_pairs = [&] {
+      return now.size() == touching.size() &&
+             std::equal(now.begin(), now.end(), touching.begin(), [](ElementPair x, ElementPair y) { return x.lo == y.lo && x.hi == y.hi; });
+    };
+    Eigen::VectorXd r0 = residual(lam, &now);
     for (int it = 0; it < opt.max_newton_iterations; ++it) {
-      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, where(lam));
       if (!r0.allFinite()) return false;
-      bool fresh = !warm || it == 0 || (it >= 2 && !(last < 0.25 * before));
+      bool fresh = !warm || it == 0 || (it >= 2 && !(last < 0.25 * before)) || !same_pairs();
+      bool factored = true;
       if (fresh) {
-        banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(lam));
-        regularize_spin(J, nn);
+        touching = now;
+        factored = jacobian(lam);
       }
       // Equilibrium: r(q) = 0 (r = generalized force). Newton: J Δq = −r,
-      // by banded LU with partial pivoting (solve_banded); where J is
-      // singular or nearly so the LU's solution does not solve the system,
-      // and a rank-revealing pivoted QR takes over. A singular J whose
-      // range misses −r (the loads push along a motion that costs no
-      // energy: a free rod in gravity, a pendulum off its vertical) has
-      // no Newton step: the rod is a mechanism under its loads.
+      // by banded LU with partial pivoting (solve_banded; sparse LU for a
+      // coupled group); where J is singular or nearly so the LU's solution
+      // does not solve the system, and a rank-revealing pivoted QR takes
+      // over. A singular J whose range misses −r (the loads push along a
+      // motion that costs no energy: a free rod in gravity, a pendulum off
+      // its vertical) has no Newton step: the rods are a mechanism under
+      // their loads.
       Eigen::VectorXd dq;
       auto solved = [&] {
-        return solve_banded(J, -r0, dq) && (J.times(dq) + r0).norm() <= 1e-8 * (r0.norm() + J.B.norm() * dq.norm());
+        if (!coupled) {
+          dq.resize(m);
+          for (std::size_t i = 0; i < nr; ++i) {
+            const Eigen::VectorXd ri = r0.segment(g.start[i], g.d[i].size());
+            Eigen::VectorXd x;
+            if (!solve_banded(J[i], -ri, x) || !((J[i].times(x) + ri).norm() <= 1e-8 * (ri.norm() + J[i].B.norm() * x.norm())))
+              return false;
+            dq.segment(g.start[i], g.d[i].size()) = x;
+          }
+          return true;
+        }
+        if (!factored) return false;
+        dq = lu.solve(-r0);
+        return lu.info() == Eigen::Success && dq.allFinite() &&
+               (A * dq + r0).norm() <= 1e-8 * (r0.norm() + A.norm() * dq.norm());
       };
       bool ok = solved();
       if (!ok && !fresh) {  // a kept Jacobian: take a fresh one before judging
-        banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(lam));
-        regularize_spin(J, nn);
+        touching = now;
+        factored = jacobian(lam);
         fresh = true;
         ok = solved();
       }
       if (!ok) {
-        const Eigen::MatrixXd A = J.dense();
-        if (singular_against(A, r0, out.zero_modes)) {
+        if (coupled && m > kDenseDiagnosis) return false;  // (too large for a dense QR)
+        const Eigen::MatrixXd D = dense();
+        if (singular_against(D, r0, out.zero_modes)) {
           out.mechanism = true;
           return false;
         }
-        dq = A.colPivHouseholderQr().solve(-r0);
+        dq = D.colPivHouseholderQr().solve(-r0);
       }
       if (!dq.allFinite()) return false;
-      const double upd = std::max(nn > 0 ? dq.head(nn).cwiseAbs().maxCoeff() / length : 0.0,
-                                  m > nn ? dq.tail(m - nn).cwiseAbs().maxCoeff() : 0.0);
+      const double upd = update_size(dq);
       // Trust region: a full Newton step far from the solution can jump to
       // another branch of the (non-convex) equilibrium problem; cap it.
       if (upd > opt.max_update) dq *= opt.max_update / upd;
-      apply_dofs(b, d, dq);
+      if (g.contact) {  // and no rod through another (pass_through_limit)
+        double dmax = 0;
+        for (std::size_t i = 0; i < nr; ++i)
+          for (std::size_t j = 0; j < g.d[i].node_slots.size(); ++j) dmax = std::max(dmax, dq.segment(g.start[i] + 3 * int(j), 3).norm());
+        const double alpha = pass_through_limit(
+            b, rods,
+            [&](int k) {
+              const int row = g.row(b, b.contact.elem_rod[k] >= 0 ? b.contact.elem_rod[k] : b.contact.elem_rod[k - 1], k);
+              return row < 0 ? vec3<double>{0, 0, 0} : vec3<double>{dq[row], dq[row + 1], dq[row + 2]};
+            },
+            dmax);
+        if (alpha < 1e-3) return false;  // (stuck against a pair: a smaller increment)
+        dq *= alpha;
+      }
+      for (std::size_t i = 0; i < nr; ++i) apply_dofs(b, g.d[i], dq.segment(g.start[i], g.d[i].size()));
+      Eigen::VectorXd r1 = residual(lam, &now);
+      // Touching rods: the step is cut back where it overshoots the
+      // equilibrium along its direction. r is the negative gradient of the
+      // potential energy Π (elastic, the loads', the pushes'), so
+      // dΠ/dα = −r(q + α dq)·dq: negative at α = 0 (Newton's direction
+      // descends), and a step past the minimum along dq ends where it is
+      // positive. A push switching on within the step (its penalty far
+      // stiffer than the rods' bending) makes Newton's step overshoot; the
+      // step is then moved to where dΠ/dα vanishes, by regula falsi on the
+      // bracket (at most three residuals), accepted once |dΠ/dα| is below
+      // half its value at the start.
+      if (g.contact) {
+        const double d0 = r0.dot(dq);
+        double lo = 0, hi = 1, dlo = d0, dhi = r1.dot(dq), at = 1;
+        for (int k = 0; k < 3 && d0 > 0 && dhi < -0.5 * d0; ++k) {
+          const double next = lo + (hi - lo) * dlo / (dlo - dhi);
+          for (std::size_t i = 0; i < nr; ++i) apply_dofs(b, g.d[i], (next - at) * dq.segment(g.start[i], g.d[i].size()));
+          at = next;
+          r1 = residual(lam, &now);
+          const double d = r1.dot(dq);
+          if (d >= 0) {
+            if (d <= 0.5 * d0) break;
+            lo = at, dlo = d;
+          } else {
+            hi = at, dhi = d;
+          }
+        }
+      }
+      r0 = std::move(r1);
       ++iterations;
       // converged: below the tolerance, or at the round-off floor (a small
       // update that no longer shrinks with a fresh Jacobian: Newton's would,
@@ -621,6 +861,18 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
     }
     return false;
   };
+  // the residual's worst rod (by its largest node force), its node and sizes
+  auto judge = [&](double lam) {
+    const Eigen::VectorXd r = residual(lam);
+    RodOutcome worst;
+    for (std::size_t i = 0; i < nr; ++i) {
+      RodOutcome o;
+      residual_size(g.d[i], r.segment(g.start[i], g.d[i].size()), b.rods[std::size_t(rods[i])].offset + 1, o);
+      if (i == 0 || o.residual_force > worst.residual_force) worst.residual_force = o.residual_force, worst.worst_node = o.worst_node, out.rod = rods[i];
+      worst.residual_couple = std::max(worst.residual_couple, o.residual_couple);
+    }
+    out.residual_force = worst.residual_force, out.residual_couple = worst.residual_couple, out.worst_node = worst.worst_node;
+  };
   const double largest = warm ? 1.0 : 1.0 / std::max(1, opt.load_steps);
   double lam = 0, inc = largest;
   int failures = 0;
@@ -629,7 +881,7 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
     const double next = 1 - lam <= inc * (1 + 1e-9) ? 1.0 : lam + inc;
     place_holds(b, paths, next);
     int its = 0;
-    const bool ok = newton(next, its);
+    const bool ok = !(g.contact && overlap_too_deep(b, rods)) && newton(next, its);
     out.iterations += its;
     if (ok) {
       lam = next;
@@ -639,13 +891,13 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       continue;
     }
     keep(false);  // back to lam
-    // Is the rod a mechanism under its loads here? (The banded LU may
+    // Are the rods a mechanism under their loads here? (The banded LU may
     // "solve" a singular J through a pivot of round-off size; the dense
     // rank-revealing QR says, at the first failure and at the last.)
     if (!out.mechanism && (++failures == 1 || inc * 0.5 < opt.min_load_step) && m <= kDenseDiagnosis) {
-      const Eigen::VectorXd r0 = static_residual<kT>(b, d, f, c, where(next));
-      banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, where(next));
-      out.mechanism = singular_against(J.dense(), r0, out.zero_modes);
+      const Eigen::VectorXd r0 = residual(next, &touching);
+      jacobian(next);
+      out.mechanism = singular_against(dense(), r0, out.zero_modes);
       keep(false);  // (the Jacobian's ±h steps leave round-off)
     }
     place_holds(b, paths, lam);
@@ -654,12 +906,12 @@ RodOutcome solve_rod(RodBatch<double>& b, int r, const StaticOptions& opt, std::
       out.ok = false;
       out.lambda = lam;
       place_holds(b, paths, std::min(1.0, lam + 2 * inc));
-      residual_size(d, static_residual<kT>(b, d, f, c, where(std::min(1.0, lam + 2 * inc))), o + 1, out);
+      judge(std::min(1.0, lam + 2 * inc));
       place_holds(b, paths, lam);
       return out;
     }
   }
-  residual_size(d, static_residual<kT>(b, d, f, c, where(1.0)), o + 1, out);
+  judge(1.0);
   return out;
 }
 
@@ -673,37 +925,72 @@ inline std::vector<ColliderFrame<double>> static_colliders(const RodBatch<double
   return frames;
 }
 
-// Rods in waves whose kernel blocks (rod_blocks) are disjoint: the rods of
-// a wave can be solved at the same time.
-inline std::vector<std::vector<int>> static_waves(const RodBatch<double>& b) {
+// Rod r's positions and frames back to those of `start` (its slots).
+inline void restore_rod(RodBatch<double>& b, const State<double>& start, int r) {
+  const RodInfo& rod = b.rods[std::size_t(r)];
+  for (int k = rod.offset; k < rod.offset + rod.elements + 2; ++k) {
+    for (int a = 0; a < 3; ++a) b.state.node_x[a][k] = start.node_x[a][k];
+    for (int a = 0; a < 9; ++a) b.state.elem_Q[a][k] = start.elem_Q[a][k];
+  }
+}
+
+// Groups of rods (solve_group) in waves whose kernel blocks are disjoint
+// (each group's span: its rods' rod_blocks, first to last): the groups of
+// a wave can be solved at the same time. Returns group indices.
+inline std::vector<std::vector<int>> static_waves(const RodBatch<double>& b, const std::vector<std::vector<int>>& groups) {
+  std::vector<Segment> span(groups.size());
+  for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+    span[gi] = rod_blocks(b.rods[std::size_t(groups[gi].front())]);
+    for (int r : groups[gi]) {
+      const Segment s = rod_blocks(b.rods[std::size_t(r)]);
+      span[gi].begin = std::min(span[gi].begin, s.begin), span[gi].end = std::max(span[gi].end, s.end);
+    }
+  }
+  std::vector<int> order(groups.size());
+  for (std::size_t gi = 0; gi < groups.size(); ++gi) order[gi] = int(gi);
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return span[std::size_t(x)].begin < span[std::size_t(y)].begin; });
   std::vector<std::vector<int>> waves;
-  std::vector<int> last_end;  // per wave, the end of its last rod's blocks
-  for (int r = 0; r < b.rod_count(); ++r) {
-    const Segment s = rod_blocks(b.rods[std::size_t(r)]);
+  std::vector<int> last_end;  // per wave, the end of its last group's span
+  for (int gi : order) {
     std::size_t w = 0;
-    while (w < waves.size() && last_end[w] > s.begin) ++w;
+    while (w < waves.size() && last_end[w] > span[std::size_t(gi)].begin) ++w;
     if (w == waves.size()) waves.emplace_back(), last_end.push_back(0);
-    waves[w].push_back(r);
-    last_end[w] = s.end;
+    waves[w].push_back(gi);
+    last_end[w] = span[std::size_t(gi)].end;
   }
   return waves;
 }
 
-// solve(r) for each rod that take(r) picks, wave by wave (static_waves):
-// the rods of a wave at the same time on OpenMP's threads (one at a time
-// with threads == 1).
+// solve(g) for each group g (an index of `groups`) that take(g) picks, wave
+// by wave (static_waves): the groups of a wave at the same time on
+// OpenMP's threads (one at a time with threads == 1).
 template <class Take, class Solve>
-void each_rod_in_waves(const RodBatch<double>& b, int threads, Take&& take, Solve&& solve) {
-  for (const std::vector<int>& wave : static_waves(b)) {
+void each_group_in_waves(const RodBatch<double>& b, const std::vector<std::vector<int>>& groups, int threads,
+                         Take&& take, Solve&& solve) {
+  for (const std::vector<int>& wave : static_waves(b, groups)) {
     std::vector<int> todo;
-    for (int r : wave)
-      if (take(r)) todo.push_back(r);
+    for (int gi : wave)
+      if (take(gi)) todo.push_back(gi);
     auto one = [&](std::size_t i) { solve(todo[i]); };
     if (threads == 1 || todo.size() < 2)
       for (std::size_t i = 0; i < todo.size(); ++i) one(i);
     else
       parallel_tasks(todo.size(), one);
   }
+}
+
+// Each rod its own group.
+inline std::vector<std::vector<int>> single_rods(const RodBatch<double>& b) {
+  std::vector<std::vector<int>> groups(std::size_t(b.rod_count()));
+  for (int r = 0; r < b.rod_count(); ++r) groups[std::size_t(r)] = {r};
+  return groups;
+}
+
+// solve(r) for each rod that take(r) picks, as each_group_in_waves with
+// each rod its own group.
+template <class Take, class Solve>
+void each_rod_in_waves(const RodBatch<double>& b, int threads, Take&& take, Solve&& solve) {
+  each_group_in_waves(b, single_rods(b), threads, take, solve);
 }
 
 }  // namespace detail
@@ -715,16 +1002,53 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   std::array<Array<double>, 3> f, c;
   detail::at_rest(b, f, c);
   const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, opt.hold_time);
-  std::vector<detail::RodOutcome> outcome(std::size_t(b.rod_count()));
-  detail::each_rod_in_waves(
-      b, opt.threads, [](int) { return true; },
-      [&](int r) { outcome[std::size_t(r)] = detail::solve_rod<kStatic>(b, r, opt, f, c, &colliders); });
+  // With rod–rod contact, rods whose boxes overlap are solved together
+  // (contact_groups); where the boxes of rods of two groups, each the
+  // union of where the rod started and where the solve left it, overlap,
+  // the groups join and are solved again from where they started, until
+  // no two groups' boxes overlap: a rod cannot have passed through a rod
+  // of another group.
+  const bool contact = detail::static_rod_contact(b);
+  const std::vector<std::array<double, 6>> boxes = contact ? detail::rod_boxes(b) : std::vector<std::array<double, 6>>{};
+  const State<double> start = contact ? b.state : State<double>{};
+  std::vector<std::vector<int>> groups = contact ? detail::contact_groups(b, boxes) : detail::single_rods(b);
+  std::vector<detail::RodOutcome> outcome(groups.size());
+  std::vector<char> todo(groups.size(), 1);
   StaticResult res;
-  for (int r = 0; r < b.rod_count(); ++r) {
-    const detail::RodOutcome& o = outcome[std::size_t(r)];
-    res.iterations += o.iterations;
-    res.load_increments += o.increments;
-    res.warm_rods += o.warm;
+  for (;;) {
+    detail::each_group_in_waves(
+        b, groups, opt.threads, [&](int gi) { return todo[std::size_t(gi)] != 0; },
+        [&](int gi) {
+          outcome[std::size_t(gi)] = detail::solve_group<kStatic>(b, groups[std::size_t(gi)], opt, f, c, &colliders);
+        });
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      if (!todo[gi]) continue;
+      const detail::RodOutcome& o = outcome[gi];
+      res.iterations += o.iterations;
+      res.load_increments += o.increments;
+    }
+    if (!contact) break;
+    bool failed = false;
+    for (const detail::RodOutcome& o : outcome) failed = failed || !o.ok;
+    if (failed) break;
+    std::vector<std::vector<int>> joined = detail::contact_groups(b, detail::box_union(boxes, detail::rod_boxes(b)), groups);
+    if (joined.size() == groups.size()) break;
+    // the groups that are not one of the old ones are solved again
+    std::vector<detail::RodOutcome> kept(joined.size());
+    std::vector<char> again(joined.size(), 1);
+    for (std::size_t j = 0; j < joined.size(); ++j)
+      for (std::size_t gi = 0; gi < groups.size(); ++gi)
+        if (groups[gi] == joined[j]) again[j] = 0, kept[j] = outcome[gi];
+    for (std::size_t j = 0; j < joined.size(); ++j)  // (solved again from where they started)
+      if (again[j])
+        for (int r : joined[j]) detail::restore_rod(b, start, r);
+    groups = std::move(joined);
+    outcome = std::move(kept);
+    todo = std::move(again);
+  }
+  for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+    const detail::RodOutcome& o = outcome[gi];
+    if (o.warm) res.warm_rods += int(groups[gi].size());
     res.last_update = std::max(res.last_update, o.last_update);
     if (res.converged) {
       res.residual_force = std::max(res.residual_force, o.residual_force);
@@ -732,7 +1056,7 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
     }
     if (o.ok || !res.converged) continue;
     res.converged = false;
-    res.failed_rod = r;
+    res.failed_rod = o.rod;
     res.failed_node = o.worst_node;
     res.load_reached = o.lambda;
     res.residual_force = o.residual_force;
@@ -755,6 +1079,17 @@ std::vector<HoldReaction> hold_reactions(const RodBatch<double>& batch) {
   detail::ResidualAt at;
   at.colliders = &colliders;
   (void)detail::static_residual<detail::kStaticTerms<kT>>(b, detail::RodDofs{}, f, c, at);  // (f, c on every slot)
+  if (detail::static_rod_contact(b)) {  // the rods' pushes on each other and themselves
+    std::vector<int> all(std::size_t(b.rod_count()));
+    for (int r = 0; r < b.rod_count(); ++r) all[std::size_t(r)] = r;
+    for (const detail::ElementPair& p : detail::touching_pairs(b, all, 0.0)) {
+      vec3<double> push[4];
+      if (!detail::pair_push(b, p, push)) continue;
+      const std::array<int, 4> nodes = detail::pair_nodes(p);
+      for (int i = 0; i < 4; ++i)
+        for (int a = 0; a < 3; ++a) f[a][nodes[std::size_t(i)]] += (&push[i].x)[a];
+    }
+  }
   std::vector<HoldReaction> out;
   for (int r = 0; r < b.rod_count(); ++r) {
     const RodInfo& rod = b.rods[std::size_t(r)];

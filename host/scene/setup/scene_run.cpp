@@ -435,9 +435,6 @@ std::string rod_words(const RodBatch<double>& b, int rod, const Scene* s) {
 }  // namespace
 
 StaticResult scene_solve_static(RodBatch<double>& b, const StepChoice& c, const StaticOptions& opt) {
-  if (c.rod_contact)
-    throw InputError("solve_static: the static solve takes colliders but no rod-rod or self contact yet: run the "
-                     "dynamics to rest instead, or set [contact] rod_rod and self to false");
   const double t = std::isfinite(opt.hold_time) ? opt.hold_time : b.state.time;
   if (!std::isnan(opt.hold_time) && !(opt.hold_time >= 0 && std::isfinite(opt.hold_time)))
     throw InputError("solve_static: the time of the holds' poses must be >= 0 and finite");
