@@ -180,7 +180,8 @@ TEST(Cli, ExampleScenesRun) {
   const std::vector<Example> examples = {
       {"seed_cantilever", "0.01", 1}, {"hair_groom", "0.1", 64},  {"cable_bundle", "0.002", 16},
       {"hair_turn", "0.3", 64},       {"cable_span", "0.05", 4},  {"cable_pile", "0.12", 18},
-      {"cable_routing", "0.05", 3},   {"helical_buckling", "20", 1}, {"hair_preload", "0.1", 64}};
+      {"cable_routing", "0.05", 3},   {"helical_buckling", "20", 1}, {"hair_preload", "0.1", 64},
+      {"cable_crossing", "0.02", 5}};
   // every example scene is run here
   for (const auto& f : fs::directory_iterator(scenes)) {
     if (f.path().extension() != ".toml") continue;
@@ -203,9 +204,11 @@ TEST(Cli, ExampleScenesRun) {
     EXPECT_EQ(cli("export " + out + " --usd " + path(std::string(e.file) + ".usda") + " --every 5").status,
               0);
   }
-  // the static example's command (its header's)
-  const Result r = cli("static " + scenes + "/cable_routing.toml -o " + path("routing_static.h5") + " --at 1.0");
-  EXPECT_EQ(r.status, 0) << r.err;
+  // the static examples' commands (their headers')
+  for (const char* file : {"cable_routing", "cable_crossing"}) {
+    const Result r = cli("static " + scenes + "/" + file + ".toml -o " + path(std::string(file) + "_static.h5") + " --at 1.0");
+    EXPECT_EQ(r.status, 0) << file << ": " << r.err;
+  }
 }
 
 TEST(Cli, RestartIsBitIdenticalToAnUninterruptedRun) {

@@ -55,8 +55,11 @@ struct StaticResult {
 };
 
 // Solves for static equilibrium under the batch's current loads and gravity
-// (and the buoyancy of a fluid), starting from the current state, rod by
-// rod; loads (and driven holds, with opt.hold_time) are ramped along the
+// (and the buoyancy of a fluid), the colliders' push and, with rod–rod or
+// self contact (ContactSpec::rod_rod, self), the rods' pushes on each
+// other (frictionless; rods that may touch are solved together), starting
+// from the current state, rod by rod; loads (and driven holds, with
+// opt.hold_time) are ramped along the
 // load path in adaptive increments. A rod already in equilibrium under its
 // full loads (solved before, its holds moved since: an interactive drag)
 // keeps them and walks only its holds, in one increment where Newton
@@ -92,7 +95,8 @@ struct HoldReaction {
 // (connector loads); they balance the loads on the rod, force and moment
 // (docs/model.md "Static equilibrium"). kT: the elastic terms, gravity and
 // loads to count (the Kelvin–Voigt term is ignored); a fluid's buoyancy
-// counts with gravity.
+// counts with gravity; the colliders' and, with rod–rod or self contact,
+// the rods' pushes on the held node count as external forces.
 template <Terms kT = kAllTerms>
 std::vector<HoldReaction> hold_reactions(const RodBatch<double>& b);
 

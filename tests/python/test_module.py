@@ -725,6 +725,62 @@ def test_a_scene_in_static_equilibrium_and_the_reactions_at_its_clamps(tmp_path)
     assert (tmp_path / "eq.h5").stat().st_size > 0
 
 
+def test_cables_pressing_on_each_other_in_static_equilibrium():
+    # Rod-rod contact in Scene.solve_static: a heavy cable across a light one,
+    # both clamped at both ends. Independent checks: the four clamps carry
+    # both weights (the push between the cables is internal), to 1e-8; the
+    # light cable's clamps carry its weight plus the push the heavy one's
+    # lack; the cables end apart by their two radii where they cross, less
+    # the contact law's overlap (tens of micrometres here).
+    text = textwrap.dedent("""\
+        [simulation]
+        dt = "auto"
+        duration = 1.0
+        precision = "double"
+        gravity = [0.0, 0.0, -9.81]
+        [contact]
+        rod_rod = true
+        [[rods]]
+        name = "heavy"
+        elements = 40
+        length = 1.0
+        start = [0.0, 0.0, 0.008]
+        direction = [1.0, 0.0, 0.0]
+        normal = [0.0, 0.0, 1.0]
+        section = { shape = "circle", radius = 0.004 }
+        material = { density = 2800.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }
+        root = "clamped"
+        tip = "clamped"
+        [[rods]]
+        name = "light"
+        elements = 40
+        length = 1.0
+        start = [0.5, -0.5, 0.0]
+        direction = [0.0, 1.0, 0.0]
+        normal = [0.0, 0.0, 1.0]
+        section = { shape = "circle", radius = 0.004 }
+        material = { density = 1400.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }
+        root = "clamped"
+        tip = "clamped"
+        """)
+    b = manyrods.parse_scene(text, "crossing.toml").solve_static()
+    h = b.hold_reactions()
+    area = math.pi * 0.004**2
+    heavy, light = 2800 * area * 9.81, 1400 * area * 9.81
+    on = [h["force"][h["rod"] == r, 2].sum() for r in (0, 1)]
+    assert abs(on[0] + on[1] - heavy - light) < 1e-8 * heavy
+    push = heavy - on[0]
+    assert push > 0.05 * light
+    assert abs(on[1] - light - push) < 1e-8 * heavy
+    x = b.positions()
+    mid_heavy = x[20, 2]  # (node 20 of each: their middles, where they cross)
+    mid_light = x[41 + 20, 2]
+    # at most the overlap at which one pair of elements carries the whole
+    # push, sqrt(2 delta P / k) (k = EA/l, delta = r/10: docs/model.md)
+    k, delta = 5.0e7 * area / (1.0 / 40), 0.1 * 0.004
+    assert 0.008 - math.sqrt(2 * delta * push / k) * (1 + 1e-6) < mid_heavy - mid_light < 0.008 + 1e-9
+
+
 def test_a_preloaded_rod_stands_as_built_and_preload_again_takes_new_loads():
     # A 15 cm cantilever held out sideways in gravity (along z, gravity along
     # -y; below its lateral-torsional buckling load): preloaded, its rest shape carries its weight and it stays where it

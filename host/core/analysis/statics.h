@@ -5,9 +5,11 @@
 // generalized forces at zero velocity (node forces, element couples): the
 // elastic terms plus λ × the external loads (gravity with the fluid's
 // buoyancy, point forces and couples), and the colliders' frictionless push
-// (collider_push). Rods are independent, so each rod is solved on its own
-// (rods whose kernel blocks do not overlap in parallel) with a banded
-// Jacobian from central differences. The loads, and driven holds walked to
+// (collider_push), and with rod–rod or self contact the rods' pushes on
+// each other (static_contact.h). A rod is solved on its own (rods whose
+// kernel blocks do not overlap in parallel) with a banded Jacobian from
+// central differences; rods that may touch each other are solved together
+// (solve_group), their bands and the touching pairs' blocks by sparse LU. The loads, and driven holds walked to
 // their pose at the hold time, are ramped along the load path in adaptive
 // increments (halved where Newton fails, doubled where it converges fast),
 // so that large deflections are reached along the equilibrium path; a
