@@ -468,6 +468,38 @@ static void test_statics(void) {
   mr_batch_destroy(b);
 }
 
+/* Rod-rod contact in the static solve: a heavy cable (rho = 2800) across a
+ * light one (1400), touching at their middles, clamped at both ends. The
+ * four clamps carry both weights (the push between them is internal, an
+ * independent balance), to 1e-8; the light cable's clamps carry more than
+ * its weight. */
+static void test_statics_rod_contact(void) {
+  static const char* scene =
+      "[simulation]\ndt = \"auto\"\nduration = 1.0\ngravity = [0.0, 0.0, -9.81]\n"
+      "[contact]\nrod_rod = true\n"
+      "[[rods]]\nname = \"heavy\"\nelements = 40\nlength = 1.0\nstart = [0.0, 0.0, 0.008]\n"
+      "direction = [1.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nsection = { shape = \"circle\", radius = 0.004 }\n"
+      "material = { density = 2800.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }\nroot = \"clamped\"\ntip = \"clamped\"\n"
+      "[[rods]]\nname = \"light\"\nelements = 40\nlength = 1.0\nstart = [0.5, -0.5, 0.0]\n"
+      "direction = [0.0, 1.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nsection = { shape = \"circle\", radius = 0.004 }\n"
+      "material = { density = 1400.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }\nroot = \"clamped\"\ntip = \"clamped\"\n";
+  mr_batch* b = NULL;
+  OK(mr_batch_create_from_scene(write_file("crossing.toml", scene), &b));
+  mr_static_result r;
+  OK(mr_batch_solve_static(b, NAN, &r));
+  CHECK(r.converged == 1, "converged (residual %g N)", r.residual_force);
+  mr_hold_reaction h[4];
+  size_t count = 4;
+  OK(mr_batch_hold_reactions(b, h, &count));
+  CHECK(count == 4, "four clamps (%zu)", count);
+  const double area = 3.141592653589793 * 0.004 * 0.004, heavy = 2800 * area * 9.81, light = 1400 * area * 9.81;
+  const double on_light = h[2].force[2] + h[3].force[2], all = h[0].force[2] + h[1].force[2] + on_light;
+  CHECK(fabs(all - heavy - light) < 1e-8 * heavy, "the clamps carry both weights (%g of %g N)", all, heavy + light);
+  CHECK(on_light > 1.05 * light, "the heavy cable presses on the light one (%g N on its clamps, its weight %g N)",
+        on_light, light);
+  mr_batch_destroy(b);
+}
+
 /* Gravity preload: a rod of 20 cm held out sideways (below its lateral-torsional
  * buckling load) stands as built; a free one has none. */
 static void test_preload(void) {
@@ -512,6 +544,7 @@ int main(int argc, char** argv) {
   test_rods_in_c();
   test_loads();
   test_statics();
+  test_statics_rod_contact();
   test_preload();
   printf("test_c_api: %d checks passed\n", checks);
   return 0;
