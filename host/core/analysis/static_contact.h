@@ -1,10 +1,13 @@
 // host/core/analysis/static_contact.h — rod–rod and self contact in the static solve.
 //
-//   touching_pairs   the element pairs of some rods whose gap is below a margin
-//                    (a uniform grid over the elements' midpoints)
-//   pair_push        one pair's frictionless push on its four nodes
-//   contact_groups   the rods that touch (or come within the margin), joined
-//                    into groups solved together (union–find)
+//   touching_pairs      the element pairs of some rods whose gap is below a
+//                       margin (a uniform grid over the elements' midpoints)
+//   pair_push           one pair's frictionless push on its four nodes
+//   each_push           every push among some rods, node by node
+//   pass_through_limit  the fraction of a Newton update that carries no rod
+//                       through another; overlap_too_deep: one that did
+//   contact_groups      the rods whose boxes (rod_boxes, box_union) overlap,
+//                       joined into groups solved together (union–find)
 //
 // The law is collider_push's (host/core/analysis/statics.h): a pair of
 // elements whose gap g (kernels/contact.h pair_geometry: |d| − r_a − r_b,
@@ -43,6 +46,7 @@ inline bool static_rod_contact(const RodBatch<double>& b) {
 
 struct ElementPair {
   int lo = -1, hi = -1;  // element slots, lo < hi
+  friend bool operator==(ElementPair, ElementPair) = default;
 };
 
 // The element pairs among the rods `rods` that may touch (rod_pair_allowed)
@@ -125,9 +129,24 @@ inline bool pair_push(const RodBatch<double>& b, ElementPair p, vec3<double> for
 // The nodes pair_push acts on, in its order.
 inline std::array<int, 4> pair_nodes(ElementPair p) { return {p.lo, p.lo + 1, p.hi, p.hi + 1}; }
 
+// add(rod, node slot, force) for each push (pair_push) among the rods
+// `rods` on each of its pair's four nodes; the pairs that push go to
+// `touching` (if given).
+template <class Add>
+void each_push(const RodBatch<double>& b, const std::vector<int>& rods, Add&& add,
+               std::vector<ElementPair>* touching = nullptr) {
+  for (const ElementPair& p : touching_pairs(b, rods, 0.0)) {
+    vec3<double> push[4];
+    if (!pair_push(b, p, push)) continue;
+    if (touching) touching->push_back(p);
+    const std::array<int, 4> nodes = pair_nodes(p);
+    for (int a = 0; a < 4; ++a) add(b.contact.elem_rod[a < 2 ? p.lo : p.hi], nodes[std::size_t(a)], push[a]);
+  }
+}
+
 // No pair passes through another in one Newton update: the largest
-// fraction α ≤ 1 of the update (move(k): node slot k's displacement; dmax:
-// the largest) after which no pair of elements of `rods` overlaps by more
+// fraction α ≤ 1 of the update (move(rod, k): node slot k's displacement,
+// of rod `rod`; dmax: the largest) after which no pair of elements of `rods` overlaps by more
 // than half its two radii. A pair apart (gap g > 0) closes by at most the
 // sum of its elements' largest node moves, Δ (the distance of two segments
 // changes by no more than their ends move), so α ≤ (g + ½(r_a + r_b))/Δ; a
@@ -146,7 +165,8 @@ double pass_through_limit(const RodBatch<double>& b, const std::vector<int>& rod
     const int near = pair_near(p.lo, p.hi, c.elem_rod.data(), c.rod_near.data());
     const PairGeometry<double> g = pair_geometry(p.lo, p.hi, s.node_x, c.elem_radius.data(), near);
     const double room = g.gap + 0.5 * (c.elem_radius[p.lo] + c.elem_radius[p.hi]);
-    const vec3<double> m[4] = {move(p.lo), move(p.lo + 1), move(p.hi), move(p.hi + 1)};
+    const int ra = c.elem_rod[p.lo], rb = c.elem_rod[p.hi];
+    const vec3<double> m[4] = {move(ra, p.lo), move(ra, p.lo + 1), move(rb, p.hi), move(rb, p.hi + 1)};
     double closing;
     if (g.gap > 0) {
       closing = std::max(norm(m[0]), norm(m[1])) + std::max(norm(m[2]), norm(m[3]));

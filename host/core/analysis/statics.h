@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdlib>
 #include <cmath>
+#include <numeric>
 #include <vector>
 
 #include <Eigen/SparseCore>
@@ -568,19 +569,14 @@ Eigen::VectorXd group_residual(RodBatch<double>& b, const GroupDofs& g, std::arr
     }
   }
   if (touching) touching->clear();
-  if (g.contact) {
-    for (const ElementPair& p : touching_pairs(b, g.rods, 0.0)) {
-      vec3<double> push[4];
-      if (!pair_push(b, p, push)) continue;
-      if (touching) touching->push_back(p);
-      const std::array<int, 4> nodes = pair_nodes(p);
-      for (int a = 0; a < 4; ++a) {
-        const int row = g.row(b, b.contact.elem_rod[a < 2 ? p.lo : p.hi], nodes[std::size_t(a)]);
-        if (row < 0) continue;
-        for (int x = 0; x < 3; ++x) res[row + x] += (&push[a].x)[x];
-      }
-    }
-  }
+  if (g.contact)
+    each_push(
+        b, g.rods,
+        [&](int rod, int k, vec3<double> push) {
+          if (const int row = g.row(b, rod, k); row >= 0)
+            for (int x = 0; x < 3; ++x) res[row + x] += (&push.x)[x];
+        },
+        touching);
   return res;
 }
 
@@ -748,14 +744,10 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     iterations = 0;
     double last = 0, before = 0;  // this increment's last two updates
     std::vector<ElementPair> now;
-    auto same_pairs = [&] {
-      return now.size() == touching.size() &&
-             std::equal(now.begin(), now.end(), touching.begin(), [](ElementPair x, ElementPair y) { return x.lo == y.lo && x.hi == y.hi; });
-    };
     Eigen::VectorXd r0 = residual(lam, &now);
     for (int it = 0; it < opt.max_newton_iterations; ++it) {
       if (!r0.allFinite()) return false;
-      bool fresh = !warm || it == 0 || (it >= 2 && !(last < 0.25 * before)) || !same_pairs();
+      bool fresh = !warm || it == 0 || (it >= 2 && !(last < 0.25 * before)) || now != touching;
       bool factored = true;
       if (fresh) {
         touching = now;
@@ -814,8 +806,8 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
           for (std::size_t j = 0; j < g.d[i].node_slots.size(); ++j) dmax = std::max(dmax, dq.segment(g.start[i] + 3 * int(j), 3).norm());
         const double alpha = pass_through_limit(
             b, rods,
-            [&](int k) {
-              const int row = g.row(b, b.contact.elem_rod[k] >= 0 ? b.contact.elem_rod[k] : b.contact.elem_rod[k - 1], k);
+            [&](int rod, int k) {
+              const int row = g.row(b, rod, k);
               return row < 0 ? vec3<double>{0, 0, 0} : vec3<double>{dq[row], dq[row + 1], dq[row + 2]};
             },
             dmax);
@@ -1010,10 +1002,10 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   // the groups join and are solved again from where they started, until
   // no two groups' boxes overlap: a rod cannot have passed through a rod
   // of another group.
-  const bool contact = detail::static_rod_contact(b);
-  const std::vector<std::array<double, 6>> boxes = contact ? detail::rod_boxes(b) : std::vector<std::array<double, 6>>{};
-  const State<double> start = contact ? b.state : State<double>{};
-  std::vector<std::vector<int>> groups = contact ? detail::contact_groups(b, boxes) : detail::single_rods(b);
+  const bool joining = detail::static_rod_contact(b) && b.contact.spec.rod_rod;  // (self contact alone: each rod alone)
+  const std::vector<std::array<double, 6>> boxes = joining ? detail::rod_boxes(b) : std::vector<std::array<double, 6>>{};
+  const State<double> start = joining ? b.state : State<double>{};
+  std::vector<std::vector<int>> groups = joining ? detail::contact_groups(b, boxes) : detail::single_rods(b);
   std::vector<detail::RodOutcome> outcome(groups.size());
   std::vector<char> todo(groups.size(), 1);
   StaticResult res;
@@ -1029,7 +1021,7 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
       res.iterations += o.iterations;
       res.load_increments += o.increments;
     }
-    if (!contact) break;
+    if (!joining) break;
     bool failed = false;
     for (const detail::RodOutcome& o : outcome) failed = failed || !o.ok;
     if (failed) break;
@@ -1083,14 +1075,10 @@ std::vector<HoldReaction> hold_reactions(const RodBatch<double>& batch) {
   (void)detail::static_residual<detail::kStaticTerms<kT>>(b, detail::RodDofs{}, f, c, at);  // (f, c on every slot)
   if (detail::static_rod_contact(b)) {  // the rods' pushes on each other and themselves
     std::vector<int> all(std::size_t(b.rod_count()));
-    for (int r = 0; r < b.rod_count(); ++r) all[std::size_t(r)] = r;
-    for (const detail::ElementPair& p : detail::touching_pairs(b, all, 0.0)) {
-      vec3<double> push[4];
-      if (!detail::pair_push(b, p, push)) continue;
-      const std::array<int, 4> nodes = detail::pair_nodes(p);
-      for (int i = 0; i < 4; ++i)
-        for (int a = 0; a < 3; ++a) f[a][nodes[std::size_t(i)]] += (&push[i].x)[a];
-    }
+    std::iota(all.begin(), all.end(), 0);
+    detail::each_push(b, all, [&](int, int k, vec3<double> push) {
+      for (int a = 0; a < 3; ++a) f[a][k] += (&push.x)[a];
+    });
   }
   std::vector<HoldReaction> out;
   for (int r = 0; r < b.rod_count(); ++r) {
