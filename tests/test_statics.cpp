@@ -953,3 +953,142 @@ TEST(Statics, AFoldedCableRestsOnItselfWithSelfContactAndFallsThroughWithout) {
   fold(true);
   fold(false);
 }
+
+namespace {
+
+// A free rod (L = 1 m, r = 2 mm, 50 elements, E = 1 GPa: a stiff plastic
+// wire, so that pulled across at its middle it drags its ends along,
+// where a soft cable folds into a V and trails them, sliding early along
+// its axis) lying along x on a floor
+// with friction μ across and μa along it, pressed into it by a twentieth
+// of the push law's width δ (so that friction holds it from the first
+// increment: a node just touching, unpressed, holds nothing), in gravity −z,
+// pulled by a node force F = pull × W along `direction` at node `node`
+// (W: the cable's weight): whether the static solve finds it held.
+struct FloorPull {
+  StaticResult first, again;
+  double weight;
+};
+FloorPull pull_on_a_floor(double mu, double axial, int node, Vec3 direction, double pull) {
+  const int n = 50;
+  const double r = 0.002, L = 1.0;
+  RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, L, n);
+  s.section = Section::circle(r);
+  s.material = {1400, 1e9, 0.3};
+  auto b = build_batch<double>({s}, {0, 0, -9.81});
+  for (int j = 0; j <= n; ++j) b.state.node_x[2][b.node_index(0, j)] = r - 0.05 * 0.1 * r;
+  ContactSpec spec;
+  Collider floor;
+  floor.kind = ColliderKind::plane;
+  floor.friction.static_coefficient = floor.friction.kinetic_coefficient = mu;
+  floor.friction.static_axial = floor.friction.kinetic_axial = axial;
+  spec.colliders.push_back(floor);
+  set_contact(b, spec);
+  FloorPull out{};
+  out.weight = 1400 * kPi * r * r * L * 9.81;
+  b.set_node_force(0, node, {direction[0] * pull * out.weight, direction[1] * pull * out.weight, 0});
+  out.first = solve_static<kNoKelvinVoigt>(b);
+  if (out.first.converged) out.again = solve_static<kNoKelvinVoigt>(b);
+  return out;
+}
+
+}  // namespace
+
+TEST(Statics, FrictionOnAFloorHoldsACableUpToCoulombsLimitAlongAndAcrossIt) {
+  // Independent reference: Coulomb's law for the whole cable. Pulled along
+  // its axis at its tip, a cable on a floor with the axial coefficient μa
+  // is held while the pull is at most μa W (every node slipping at the
+  // limit carries μa times its share of the weight); pulled across at its
+  // middle node, it translates (by symmetry) once the pull exceeds μ W.
+  // The loads and gravity ramp together, so the pull's ratio to the
+  // weight is the same all along the load path. 10 % either side of the
+  // limit: far outside the law's discrete errors (the stick length ε =
+  // r/100 lets a node creep before it slips; it shifts no limit). With
+  // μ = 0 along the axis (frictionless that way) the cable slides off under
+  // any axial pull. A second solve of the same state keeps the contact
+  // points where the rods stuck (ContactData::static_anchors): it starts in
+  // equilibrium (warm).
+  const double mu = 0.5, axial = 0.2;
+  for (const double f : {0.9, 1.1}) {
+    const FloorPull along = pull_on_a_floor(mu, axial, 50, {1, 0, 0}, f * axial);
+    const FloorPull across = pull_on_a_floor(mu, axial, 25, {0, 1, 0}, f * mu);
+    std::printf("cable on a floor (W = %.4f N), pull %.1f x the limit: along %s (%d stick, %d slip), across %s (%d stick, "
+                "%d slip)\n", along.weight, f, along.first.converged ? "held" : "slides", along.first.sticking,
+                along.first.slipping, across.first.converged ? "held" : "slides", across.first.sticking, across.first.slipping);
+    for (const FloorPull* p : {&along, &across}) {
+      EXPECT_EQ(p->first.converged, f < 1) << f;
+      if (!p->first.converged) continue;
+      EXPECT_GT(p->first.sticking + p->first.slipping, 40);  // (the nodes on the floor: 51, less a slipping end's lift)
+      EXPECT_TRUE(p->again.converged);
+      EXPECT_EQ(p->again.warm_rods, 1);
+    }
+  }
+  EXPECT_FALSE(pull_on_a_floor(mu, 0.0, 50, {1, 0, 0}, 0.01).first.converged);
+}
+
+TEST(Statics, ACableOverAFrictionalCapsuleHoldsTipLoadsUpToTheCapstanRatio) {
+  // docs/validation.md 1k. Independent reference: the capstan (Euler–
+  // Eytelwein) equation. A cable (r = 0.5 mm, E = 1 GPa) hangs over a
+  // horizontal capsule (radius R = 5 cm, μ = 0.3) with loads T1 = 10 N and
+  // T2 = f e^{μπ} T1 on its free tips: it is held for f ≤ 1 and slides
+  // beyond. The threshold f* is found by bisection on f. Bounds: the
+  // discrete wrap (nodes dθ = ℓ/R apart, each carrying μ times its push)
+  // raises the ratio by e^{μπ dθ²(1+μ²)/12} (the product of the nodes'
+  // (1 + μ tan(dθ/2))/(1 − μ tan(dθ/2))); the cable's bending stiffness makes
+  // it leave the capsule a bending length λ = √(EI/T) early at each end,
+  // losing at most μ(λ1 + λ2)/R of the exponent. Asserted: 1 − μ(λ1 + λ2)/R
+  // − res ≤ f* ≤ 1 + μπ dθ²(1+μ²)/12 + res, res the bisection's last
+  // bracket. Frictionless (μ = 0) any unequal loads slide: no equilibrium,
+  // the solve says so.
+  const double R = 0.05, r = 0.0005, leg = 0.1, E = 1e9, T1 = 10;
+  const int n = 80;
+  auto hang = [&](double mu, double f) {
+    // nodes on a circle whose chords touch the capsule pressed a twentieth
+    // of δ, then two vertical legs
+    double a = R + r;
+    a = (R + r - 0.005 * r) / std::cos(0.5 * ((2 * leg + kPi * a) / n) / a);
+    const double L = 2 * leg + kPi * a;
+    std::vector<Vec3> x;
+    for (int j = 0; j <= n; ++j) {
+      const double s = L * j / n;
+      if (s < leg) x.push_back({-a, 0, s - leg});
+      else if (s < leg + kPi * a) x.push_back({-a * std::cos((s - leg) / a), 0, a * std::sin((s - leg) / a)});
+      else x.push_back({a, 0, leg + kPi * a - s});
+    }
+    RodSpec s = RodSpec::polyline(x, RodSpec::parallel_transport_frames(x, {0, 1, 0}));
+    s.section = Section::circle(r);
+    s.material = {1400, E, 0.45};
+    s.rest_curvature.assign(n - 1, {0, 0, 0});  // (straight at rest)
+    auto b = build_batch<double>({s});
+    ContactSpec spec;
+    Collider pipe;
+    pipe.kind = ColliderKind::capsule;
+    pipe.a = {0, -0.5, 0};
+    pipe.b = {0, 0.5, 0};
+    pipe.radius = R;
+    pipe.friction.static_coefficient = pipe.friction.kinetic_coefficient = mu;
+    spec.colliders.push_back(pipe);
+    set_contact(b, spec);
+    b.set_node_force(0, 0, {0, 0, -T1});
+    b.set_node_force(0, n, {0, 0, -f * std::exp(mu * kPi) * T1});
+    return solve_static<kNoGravity>(b);
+  };
+  const double mu = 0.3;
+  double lo = 0.9, hi = 1.05;
+  ASSERT_TRUE(hang(mu, lo).converged);
+  ASSERT_FALSE(hang(mu, hi).converged);
+  for (int i = 0; i < 7; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (hang(mu, mid).converged ? lo : hi) = mid;
+  }
+  const double I = kPi * r * r * r * r / 4, T2 = std::exp(mu * kPi) * T1;
+  const double bending = mu * (std::sqrt(E * I / T1) + std::sqrt(E * I / T2)) / R;
+  const double dtheta = (2 * leg + kPi * R) / n / R, discrete = mu * kPi * dtheta * dtheta * (1 + mu * mu) / 12;
+  std::printf("capstan: held up to T2/T1 = %.4f..%.4f x e^(mu pi) (bending bound -%.4f, discrete +%.5f)\n", lo, hi,
+              bending, discrete);
+  EXPECT_GE(lo, 1 - bending - (hi - lo));
+  EXPECT_LE(hi, 1 + discrete + (hi - lo));
+  const StaticResult slick = hang(0.0, 1.05);
+  EXPECT_FALSE(slick.converged);
+  EXPECT_EQ(slick.failed_rod, 0);
+}

@@ -508,6 +508,9 @@ int command_static(const Options& o) {
                "manyrods static: equilibrium at t = %.6g s after %d Newton iterations in %d load increments, residual "
                "%.3g N, %.3g N m; %zu holds -> %s\n",
                o.at, r.iterations, r.load_increments, r.residual_force, r.residual_couple, h.rod.size(), o.output.c_str());
+  if (r.sticking + r.slipping > 0)
+    std::fprintf(stderr, "  friction at the colliders: %d nodes stick where they first touched, %d at the friction limit\n",
+                 r.sticking, r.slipping);
   const std::size_t shown = std::min<std::size_t>(h.rod.size(), 20);
   if (shown > 0) std::fprintf(stderr, "  rod  node  kind     force (N)                              moment (N m)\n");
   for (std::size_t i = 0; i < shown; ++i)

@@ -341,6 +341,8 @@ mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_result* resu
       result->load_reached = r.load_reached;
       result->mechanism = r.mechanism;
       result->warm_rods = r.warm_rods;
+      result->sticking = r.sticking;
+      result->slipping = r.slipping;
     }
     b->b.check_static(r);
   });

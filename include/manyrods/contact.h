@@ -136,6 +136,17 @@ struct SolveImpulse {
   T s = 0, n[3] = {}, p[3] = {};
 };
 
+// A collider contact's anchor in the static solve (friction; docs/model.md
+// "Static equilibrium", Friction): rod node slot `node` sticks to the point X
+// of collider `collider` (its body frame), pulled back to it tangentially
+// up to the friction limit. x: the node where the last solve left it (an
+// anchor whose node has moved since, by a step or by the user, is
+// dropped: it belongs to another state).
+struct StaticAnchor {
+  int node = -1, collider = -1;
+  double X[3] = {}, x[3] = {};
+};
+
 template <class T>
 struct ContactData {
   bool on = false;  // set_contact was called
@@ -180,6 +191,10 @@ struct ContactData {
   // tolerance from any guess), but part of the state a checkpoint keeps,
   // so that a continued run goes on bit for bit
   std::vector<std::vector<SolveImpulse<T>>> solve_impulses;
+  // [rods] each rod's collider contacts sticking in the last static solve
+  // (host/core/analysis/static_friction.h): its friction's memory, so that
+  // a re-solve after a hold moves keeps what the rods rest on
+  std::vector<std::vector<StaticAnchor>> static_anchors;
 };
 
 // Contacts now (recomputed from the state; for outputs, not for the step).

@@ -179,14 +179,17 @@ typedef struct mr_static_result {
   int mechanism;                           /* 1: it is free to move under its loads */
   int warm_rods;                           /* rods already in equilibrium under their loads (a re-solve after a
                                               hold moved): only their holds walked */
+  int sticking, slipping;                  /* collider contacts with friction: nodes stuck where they first
+                                              touched, nodes at the friction limit */
 } mr_static_result;
 /* The static equilibrium of the batch's rods under its loads, gravity and
- * buoyancy (a double-precision batch without contact or wind), every
+ * buoyancy, the colliders' push and friction and the rods' contact (a
+ * double-precision batch without wind), every
  * driven hold at its pose at `time` (s; NAN: the holds stay where they are),
  * found by Newton's method along an adaptive load path from the current
  * state; velocities become zero, and with a time the batch's time becomes it.
  * `result` (may be NULL) is filled in every case. MR_ERROR_INPUT for a float
- * batch, contact, wind, a bad time, and a rod that is a mechanism under its
+ * batch, wind, a bad time, and a rod that is a mechanism under its
  * loads (a free rod in gravity); MR_ERROR_NO_EQUILIBRIUM when Newton finds
  * none (the message names the rod, node and residual; the rods are left
  * where the solve stopped). */

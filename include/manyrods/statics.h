@@ -37,6 +37,11 @@ struct StaticResult {
   // a solve before this one, the holds moved since): only their holds
   // walked, the whole way in one increment where Newton allows
   int warm_rods = 0;
+  // Collider contacts with friction at the end (docs/model.md "Static
+  // equilibrium", Friction): nodes stuck to the collider where they first
+  // touched it, and nodes at the friction limit (slipping: their friction
+  // is μ times their push)
+  int sticking = 0, slipping = 0;
   double last_update = 0;   // the largest last Newton update of a rod
   // What is left out of balance: the largest |force| on a free node (N)
   // and |couple| on a free element (N·m), at the full load when converged,
@@ -55,12 +60,17 @@ struct StaticResult {
 };
 
 // Solves for static equilibrium under the batch's current loads and gravity
-// (and the buoyancy of a fluid), the colliders' push and, with rod–rod or
-// self contact (ContactSpec::rod_rod, self), the rods' pushes on each
-// other (frictionless; rods that may touch are solved together), starting
-// from the current state, rod by rod; loads (and driven holds, with
-// opt.hold_time) are ramped along the
-// load path in adaptive increments. A rod already in equilibrium under its
+// (and the buoyancy of a fluid), the colliders' push and friction and,
+// with rod–rod or self contact (ContactSpec::rod_rod, self), the rods'
+// pushes on each other (frictionless; rods that may touch are solved
+// together), starting from the current state, rod by rod; loads (and
+// driven holds, with opt.hold_time) are ramped along the load path in
+// adaptive increments. Friction at a collider (its static coefficients)
+// holds a node where it first touched it, up to μ times its push, and
+// lets it slip beyond, along the load path; the batch keeps those contact
+// points (ContactData::static_anchors) for the next solve of the same
+// state, so that a re-solve after a hold moved remembers where the rods
+// stuck. A rod already in equilibrium under its
 // full loads (solved before, its holds moved since: an interactive drag)
 // keeps them and walks only its holds, in one increment where Newton
 // allows (a warm start). Velocities are set to zero. Rods

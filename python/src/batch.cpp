@@ -343,6 +343,8 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
             d["iterations"] = r.iterations;
             d["load_increments"] = r.load_increments;
             d["warm_rods"] = r.warm_rods;
+            d["sticking"] = r.sticking;
+            d["slipping"] = r.slipping;
             d["last_update"] = r.last_update;
             d["residual_force"] = r.residual_force;
             d["residual_couple"] = r.residual_couple;
@@ -354,12 +356,13 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
             return d;
           },
           "load_steps"_a = 10, "tolerance"_a = 1e-10, "at"_a = nb::none(), nb::kw_only(), "check"_a = true,
-          "Static equilibrium under the loads, gravity and buoyancy (double batches, no contact or wind), from the "
-          "current state along an adaptive load path; `at`: the time (s) whose poses the driven holds take (the "
+          "Static equilibrium under the loads, gravity and buoyancy, the colliders' push and friction and the rods' "
+          "contact (double batches, no wind), from the current state along an adaptive load path; `at`: the time (s) whose poses the driven holds take (the "
           "batch's time becomes it). Without an equilibrium: ValueError for a rod that is a mechanism under its "
           "loads, manyrods.StaticError when Newton fails (the message names the rod, node and residual), or with "
           "check=False the dict says so (converged, failed_rod, message). Returns iterations, load_increments, "
-          "residual_force (N), residual_couple (N m), ...")
+          "residual_force (N), residual_couple (N m), sticking and slipping (collider contacts with friction: "
+          "nodes stuck where they first touched, nodes at the friction limit), ...")
       .def(
           "preload",
           [](PyBatch& p) {

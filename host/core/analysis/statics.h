@@ -4,8 +4,8 @@
 // every element frame (Q ← exp(−[φ]×) Q, material components). Residual: the
 // generalized forces at zero velocity (node forces, element couples): the
 // elastic terms plus λ × the external loads (gravity with the fluid's
-// buoyancy, point forces and couples), and the colliders' frictionless push
-// (collider_push), and with rod–rod or self contact the rods' pushes on
+// buoyancy, point forces and couples), and the colliders' push and friction
+// (static_colliders.h), and with rod–rod or self contact the rods' pushes on
 // each other (static_contact.h). A rod is solved on its own (rods whose
 // kernel blocks do not overlap in parallel) with a banded Jacobian from
 // central differences; rods that may touch each other are solved together
@@ -31,6 +31,7 @@
 #include <Eigen/SparseCore>
 #include <Eigen/SparseLU>
 
+#include "host/core/analysis/static_colliders.h"
 #include "host/core/analysis/static_contact.h"
 #include "host/core/step/contact_stage.h"
 #include "host/core/step/diagnostics.h"
@@ -55,49 +56,14 @@ struct ResidualAt {
   double lambda = 1;
   const std::vector<ColliderFrame<double>>* colliders = nullptr;
   int rod = -1;
+  bool current_anchors = false;  // friction only from anchors whose node has not moved since (collider_push)
 };
-
-// The colliders' frictionless push on rod r's nodes, added to f: each touch
-// (collider_touches) of an element with gap g < 0 pushes along its normal
-// n with p(g) = k g²/(2δ) for −δ < g < 0 and k (−g − δ/2) deeper (a
-// penalty, once differentiable at the surface so that Newton's Jacobian
-// does not jump where a contact starts), shared by the element's nodes as
-// (1 − s, s). k = the element's axial stiffness EA/ℓ; δ = 0.1 × the rod's
-// contact radius. A load F on a contact is carried at an overlap of
-// √(2δF/k) (while below kδ/2, far above the loads of rods at rest: a
-// micrometre for a 1 cm rod's weight on a floor); a narrower δ made
-// Newton stall on stiff rods (shear and stretch ×100) at the contacts'
-// onset. A static solve's contacts are frictionless.
-inline void collider_push(const RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& frames,
-                          std::array<Array<double>, 3>& f) {
-  const RodInfo& rod = b.rods[std::size_t(r)];
-  const ConstStateView<double> s = b.state_view();
-  for (int e = 0; e < rod.elements; ++e) {
-    const int k = rod.offset + 1 + e;  // element k joins nodes k and k + 1
-    const double radius = rod.element_radius(e), delta = 0.1 * radius;
-    const double stiff = b.model.elem_stiffness[2][k] / b.model.elem_rest_length[k];
-    const vec3<double> x0 = load3(s.node_x, k), x1 = load3(s.node_x, k + 1);
-    for (const ColliderFrame<double>& col : frames) {
-      Touch<double> t[3];
-      const int count = collider_touches(col, x0, x1, radius, t);
-      for (int i = 0; i < count; ++i) {
-        const double g = t[i].gap;
-        if (!(g < 0)) continue;
-        const double p = g > -delta ? stiff * g * g / (2 * delta) : stiff * (-g - delta / 2);
-        for (int a = 0; a < 3; ++a) {
-          const double pa = p * (&t[i].n.x)[a];
-          f[a][k] += (1 - t[i].s) * pa;
-          f[a][k + 1] += t[i].s * pa;
-        }
-      }
-    }
-  }
-}
 
 // The residual of the unknowns d at load fraction at.lambda: the internal
 // forces and couples (the elastic terms of kT) plus lambda times the
 // external ones (gravity, the displaced fluid's buoyancy with it, point
-// forces and couples), at rest, plus the colliders' push (collider_push).
+// forces and couples), at rest, plus the colliders' push and friction
+// (collider_push).
 // The resultants are computed over at.seg (a rod's kernel blocks,
 // rod_blocks; the whole batch by default), so a rod's residual costs its
 // own slots, not the batch's; f and c receive the generalized forces on
@@ -130,7 +96,7 @@ Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::arra
   }
   if (at.colliders && !at.colliders->empty())
     for (int rr = at.rod < 0 ? 0 : at.rod; rr < (at.rod < 0 ? b.rod_count() : at.rod + 1); ++rr)
-      collider_push(b, rr, *at.colliders, f);
+      collider_push(b, rr, *at.colliders, f, at.current_anchors);
   Eigen::VectorXd res(d.size());
   int i = 0;
   for (int k : d.node_slots)
@@ -444,6 +410,7 @@ struct RodOutcome {
   bool mechanism = false;
   bool warm = false;  // started in equilibrium under the full loads
   int rod = -1;       // the rod with the largest residual force (of a group)
+  int stick = 0, slip = 0;  // collider contacts with friction: sticking, at the friction limit
 };
 
 // The largest |force| on a free node and |couple| on a free element of the
@@ -643,7 +610,19 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
   // they are: for each rod, its forces below 1e-6 of the largest force on
   // a node of the rod (held ones included: they carry the reactions) or of
   // an external one, and its couples likewise against the couples on the
-  // rod's elements.
+  // rod's elements (or, if larger, that force times an element's length).
+  // Friction at the colliders: anchors where the rods touch them now (their
+  // first contact points; kept ones stay where their solve left them)
+  const bool friction = colliders && static_friction(*colliders);
+  auto anchor = [&] {
+    if (!friction) return;
+    out.stick = out.slip = 0;
+    for (int r : rods) {
+      const AnchorCount n = update_anchors(b, r, *colliders);
+      out.stick += n.stick, out.slip += n.slip;
+    }
+  };
+  anchor();
   bool warm = true;
   {
     std::vector<std::array<double, 2>> scale;
@@ -657,6 +636,10 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
         scale[i][std::size_t(kind)] = std::max(scale[i][std::size_t(kind)], ext.segment(at, 3).norm());
         left[kind] = std::max(left[kind], r1.segment(at, 3).norm());
       }
+      // (couples against at least the forces' over an element: a straight
+      // rod carries none, and its couples' round-off would decide)
+      const RodInfo& rod = b.rods[std::size_t(rods[i])];
+      scale[i][1] = std::max(scale[i][1], scale[i][0] * g.length[i] / std::max(rod.elements, 1));
       warm = warm && left[0] <= 1e-6 * scale[i][0] && left[1] <= 1e-6 * scale[i][1];
     }
   }
@@ -880,6 +863,7 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     if (ok) {
       lam = next;
       ++out.increments;
+      anchor();  // (the force is unchanged: the equilibrium holds)
       keep(true);
       if (its <= 4) inc = std::min(2 * inc, largest);
       continue;
@@ -996,6 +980,8 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   std::array<Array<double>, 3> f, c;
   detail::at_rest(b, f, c);
   const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, opt.hold_time);
+  const bool friction = detail::static_friction(colliders);
+  if (friction) detail::drop_stale_anchors(b, int(colliders.size()));
   // With rod–rod contact, rods whose boxes overlap are solved together
   // (contact_groups); where the boxes of rods of two groups, each the
   // union of where the rod started and where the solve left it, overlap,
@@ -1005,6 +991,8 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   const bool joining = detail::static_rod_contact(b) && b.contact.spec.rod_rod;  // (self contact alone: each rod alone)
   const std::vector<std::array<double, 6>> boxes = joining ? detail::rod_boxes(b) : std::vector<std::array<double, 6>>{};
   const State<double> start = joining ? b.state : State<double>{};
+  const std::vector<std::vector<StaticAnchor>> anchors = joining && friction ? b.contact.static_anchors
+                                                                            : std::vector<std::vector<StaticAnchor>>{};
   std::vector<std::vector<int>> groups = joining ? detail::contact_groups(b, boxes) : detail::single_rods(b);
   std::vector<detail::RodOutcome> outcome(groups.size());
   std::vector<char> todo(groups.size(), 1);
@@ -1035,7 +1023,10 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
         if (groups[gi] == joined[j]) again[j] = 0, kept[j] = outcome[gi];
     for (std::size_t j = 0; j < joined.size(); ++j)  // (solved again from where they started)
       if (again[j])
-        for (int r : joined[j]) detail::restore_rod(b, start, r);
+        for (int r : joined[j]) {
+          detail::restore_rod(b, start, r);
+          if (friction) b.contact.static_anchors[std::size_t(r)] = anchors[std::size_t(r)];
+        }
     groups = std::move(joined);
     outcome = std::move(kept);
     todo = std::move(again);
@@ -1043,6 +1034,8 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
   for (std::size_t gi = 0; gi < groups.size(); ++gi) {
     const detail::RodOutcome& o = outcome[gi];
     if (o.warm) res.warm_rods += int(groups[gi].size());
+    res.sticking += o.stick;
+    res.slipping += o.slip;
     res.last_update = std::max(res.last_update, o.last_update);
     if (res.converged) {
       res.residual_force = std::max(res.residual_force, o.residual_force);
@@ -1072,6 +1065,7 @@ std::vector<HoldReaction> hold_reactions(const RodBatch<double>& batch) {
   const std::vector<ColliderFrame<double>> colliders = detail::static_colliders(b, b.state.time);
   detail::ResidualAt at;
   at.colliders = &colliders;
+  at.current_anchors = true;  // (friction held by the last static solve, in the state it left)
   (void)detail::static_residual<detail::kStaticTerms<kT>>(b, detail::RodDofs{}, f, c, at);  // (f, c on every slot)
   if (detail::static_rod_contact(b)) {  // the rods' pushes on each other and themselves
     std::vector<int> all(std::size_t(b.rod_count()));
