@@ -500,6 +500,43 @@ static void test_statics_rod_contact(void) {
   mr_batch_destroy(b);
 }
 
+/* Friction at a collider in the static solve: a cable clamped at one end
+ * lying on a bench (friction 0.4), pulled across at its tip by a tenth of
+ * its weight. Every node but the clamped one presses on the bench and is
+ * counted as sticking or slipping; the clamp carries less of the pull than
+ * on a frictionless bench (where it carries all of it: an independent
+ * balance), the bench's friction the rest. */
+static void test_statics_friction(void) {
+  const double weight = 1400 * 3.141592653589793 * 0.005 * 0.005 * 1.0 * 9.81;
+  double clamp_y[2] = {0, 0};
+  for (int friction = 1; friction >= 0; --friction) {
+    char scene[2048];
+    snprintf(scene, sizeof scene,
+             "[simulation]\ndt = \"auto\"\nduration = 1.0\ngravity = [0.0, 0.0, -9.81]\n"
+             "[[colliders]]\nkind = \"plane\"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n%s\n"
+             "[[rods]]\nname = \"cable\"\nelements = 40\nlength = 1.0\nstart = [0.0, 0.0, 0.005]\n"
+             "direction = [1.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nsection = { shape = \"circle\", radius = 0.005 }\n"
+             "material = { density = 1400.0, youngs_modulus = 5.0e7, poisson_ratio = 0.45 }\nroot = \"clamped\"\n"
+             "tip_force = [0.0, %.17g, 0.0]\n",
+             friction ? "friction = { static = 0.4, kinetic = 0.4 }" : "", 0.1 * weight);
+    mr_batch* b = NULL;
+    OK(mr_batch_create_from_scene(write_file(friction ? "bench.toml" : "slick.toml", scene), &b));
+    mr_static_result r;
+    OK(mr_batch_solve_static(b, NAN, &r));
+    CHECK(r.converged == 1, "converged (residual %g N)", r.residual_force);
+    CHECK(friction ? r.sticking + r.slipping == 40 : r.sticking + r.slipping == 0,
+          "nodes held by friction: %d stick, %d slip", r.sticking, r.slipping);
+    mr_hold_reaction h[1];
+    size_t count = 1;
+    OK(mr_batch_hold_reactions(b, h, &count));
+    clamp_y[friction] = -h[0].force[1];
+    mr_batch_destroy(b);
+  }
+  CHECK(fabs(clamp_y[0] - 0.1 * weight) < 1e-8 * weight && clamp_y[1] < 0.9 * clamp_y[0],
+        "the clamp carries the pull on a frictionless bench (%g of %g N), less with friction (%g N)", clamp_y[0],
+        0.1 * weight, clamp_y[1]);
+}
+
 /* Gravity preload: a rod of 20 cm held out sideways (below its lateral-torsional
  * buckling load) stands as built; a free one has none. */
 static void test_preload(void) {
@@ -545,6 +582,7 @@ int main(int argc, char** argv) {
   test_loads();
   test_statics();
   test_statics_rod_contact();
+  test_statics_friction();
   test_preload();
   printf("test_c_api: %d checks passed\n", checks);
   return 0;

@@ -181,7 +181,7 @@ TEST(Cli, ExampleScenesRun) {
       {"seed_cantilever", "0.01", 1}, {"hair_groom", "0.1", 64},  {"cable_bundle", "0.002", 16},
       {"hair_turn", "0.3", 64},       {"cable_span", "0.05", 4},  {"cable_pile", "0.12", 18},
       {"cable_routing", "0.05", 3},   {"helical_buckling", "20", 1}, {"hair_preload", "0.1", 64},
-      {"cable_crossing", "0.02", 5}};
+      {"cable_crossing", "0.02", 5},  {"cable_drag", "0.02", 1}};
   // every example scene is run here
   for (const auto& f : fs::directory_iterator(scenes)) {
     if (f.path().extension() != ".toml") continue;
@@ -205,7 +205,7 @@ TEST(Cli, ExampleScenesRun) {
               0);
   }
   // the static examples' commands (their headers')
-  for (const char* file : {"cable_routing", "cable_crossing"}) {
+  for (const char* file : {"cable_routing", "cable_crossing", "cable_drag"}) {
     const Result r = cli("static " + scenes + "/" + file + ".toml -o " + path(std::string(file) + "_static.h5") + " --at 1.0");
     EXPECT_EQ(r.status, 0) << file << ": " << r.err;
   }
@@ -1632,6 +1632,49 @@ TEST(Cli, StaticSolvesCablesPressingOnEachOther) {
   EXPECT_GT(push, 0.05 * light);
   EXPECT_NEAR(on_light, light + push, tol);
   EXPECT_NEAR(force[0] + force[3], 0, tol);
+}
+
+TEST(Cli, StaticDragsACableAcrossAFrictionalBench) {
+  // Friction at the colliders in `manyrods static`: the example scene's
+  // cable (1 m, on a bench with μ = 0.4) dragged 10 cm across by its
+  // clamped connector. Independent checks (Coulomb): the connector's
+  // horizontal pull is what the bench's friction holds, at most μ times
+  // the weight the bench carries (W less what the connector lifts); the
+  // far end stays within a centimetre of where it lay. The same scene with
+  // a frictionless bench: nothing holds the cable, which follows its
+  // connector whole (the far end moves the full 10 cm, the connector pulls
+  // nothing).
+  const std::string scenes = MANYRODS_SCENES;
+  std::ifstream in(scenes + "/cable_drag.toml");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string scene = text.str();
+  const double weight = 1400 * std::numbers::pi * 0.005 * 0.005 * 1.0 * 9.81;
+  for (const bool friction : {true, false}) {
+    SCOPED_TRACE(friction);
+    std::string toml = scene;
+    if (!friction) toml.replace(toml.find("friction = { static = 0.4, kinetic = 0.4 }"), 42, "");
+    const std::string out = path(friction ? "drag_static.h5" : "slick_static.h5");
+    const Result r = cli("static " + write_scene(friction ? "drag.toml" : "slick.toml", toml) + " -o " + out + " --at 1.0");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::vector<double> force = read_holds(out, "force");
+    ASSERT_EQ(force.size(), 3u);
+    const h5::Reader rd(out);
+    std::vector<double> p;
+    rd.read_positions(rd.frames() - 1, p);
+    const double pull = std::hypot(force[0], force[1]), tip_y = p[p.size() - 2];
+    std::printf("cable dragged 10 cm, friction %d: connector pull %.4f N (mu (W - lift) = %.4f N), far end moved %.4f m\n",
+                int(friction), pull, 0.4 * (weight - force[2]), tip_y);
+    if (friction) {
+      expect_contains(r.err, "friction at the colliders:");
+      EXPECT_GT(pull, 0.1 * weight);
+      EXPECT_LE(pull, 0.4 * (weight - force[2]) * (1 + 1e-6));
+      EXPECT_LT(std::abs(tip_y), 0.01);
+    } else {
+      EXPECT_LT(pull, 1e-6 * weight);
+      EXPECT_NEAR(tip_y, 0.1, 1e-6);
+    }
+  }
 }
 
 TEST(Cli, StaticRefusesWhatItCannotSolveAndWritesNothing) {

@@ -956,10 +956,11 @@ TEST(Statics, AFoldedCableRestsOnItselfWithSelfContactAndFallsThroughWithout) {
 
 namespace {
 
-// A free rod (L = 1 m, r = 2 mm, 50 elements, E = 1 GPa: a stiff plastic
-// wire, so that pulled across at its middle it drags its ends along,
-// where a soft cable folds into a V and trails them, sliding early along
-// its axis) lying along x on a floor
+// A free steel wire (L = 1 m, r = 2 mm, 50 elements: stiff, so that pulled
+// across at its middle it moves as a whole, where a soft cable folds into
+// a V and trails its ends, sliding early along its axis; and pressed only
+// nanometres into the floor by its weight, which the Jacobian's
+// differences must resolve) lying along x on a floor
 // with friction μ across and μa along it, pressed into it by a twentieth
 // of the push law's width δ (so that friction holds it from the first
 // increment: a node just touching, unpressed, holds nothing), in gravity −z,
@@ -974,7 +975,7 @@ FloorPull pull_on_a_floor(double mu, double axial, int node, Vec3 direction, dou
   const double r = 0.002, L = 1.0;
   RodSpec s = RodSpec::straight({0, 0, 0}, {1, 0, 0}, {0, 0, 1}, L, n);
   s.section = Section::circle(r);
-  s.material = {1400, 1e9, 0.3};
+  s.material = {7850, 2e11, 0.3};
   auto b = build_batch<double>({s}, {0, 0, -9.81});
   for (int j = 0; j <= n; ++j) b.state.node_x[2][b.node_index(0, j)] = r - 0.05 * 0.1 * r;
   ContactSpec spec;
@@ -985,7 +986,7 @@ FloorPull pull_on_a_floor(double mu, double axial, int node, Vec3 direction, dou
   spec.colliders.push_back(floor);
   set_contact(b, spec);
   FloorPull out{};
-  out.weight = 1400 * kPi * r * r * L * 9.81;
+  out.weight = 7850 * kPi * r * r * L * 9.81;
   b.set_node_force(0, node, {direction[0] * pull * out.weight, direction[1] * pull * out.weight, 0});
   out.first = solve_static<kNoKelvinVoigt>(b);
   if (out.first.converged) out.again = solve_static<kNoKelvinVoigt>(b);

@@ -48,7 +48,9 @@ struct StaticResult {
   // else the failed rod's at the load it could not reach.
   double residual_force = 0, residual_couple = 0;
   // When not converged: the first rod without an equilibrium, its node
-  // with the largest residual force, the load fraction it reached, and
+  // with the largest residual force, the load fraction it reached (with
+  // friction at a collider and holds that walk, the loads come first and
+  // then the holds: on that second leg, the fraction of the walk), and
   // whether it is a mechanism under its loads (its stiffness matrix has
   // zero_modes zero-energy motions along which the loads push: a free rod
   // in gravity, a pendulum away from its vertical) or the Newton solve

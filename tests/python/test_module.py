@@ -848,3 +848,27 @@ def test_a_tapered_rod_from_python():
     rod.section_scale = [1.0] * 9
     with pytest.raises(ValueError, match=r"section_scale: 9 given, 10 needed"):
         manyrods.Batch([rod])
+
+
+def test_friction_in_static_equilibrium_is_remembered_for_a_re_solve():
+    # tools/scenes/cable_drag.toml: a cable on a bench (friction 0.4) dragged
+    # 10 cm across by its connector. Batch.solve_static reports the nodes
+    # that stick and those at the friction limit (every node presses on the
+    # bench but the connector's, held at its surface: 40); the bench's friction balances the connector's horizontal
+    # pull (the free body of the cable: an independent check, to the
+    # residual) and is at most 0.4 times the weight the bench carries. A
+    # second solve of the same state keeps where the nodes stuck and starts
+    # in equilibrium (warm, one increment); dragged back half way, it is
+    # held again.
+    b = manyrods.load_scene(os.path.join(SCENES, "cable_drag.toml")).build_batch()
+    r = b.solve_static(at=1.0)
+    assert r["sticking"] + r["slipping"] == 40
+    h = b.hold_reactions()
+    weight = 1400 * math.pi * 0.005**2 * 1.0 * 9.81
+    f = h["force"][0]
+    pull = math.hypot(f[0], f[1])
+    assert 0.1 * weight < pull <= 0.4 * (weight - f[2]) * (1 + 1e-6)
+    again = b.solve_static(at=1.0)
+    assert again["warm_rods"] == 1 and again["load_increments"] == 1
+    back = b.solve_static(at=0.5)
+    assert back["converged"] and back["sticking"] + back["slipping"] == 40

@@ -13,7 +13,7 @@
 //
 // where C λ are the normal forces of the colliders on the touches within
 // one contact radius of their surface (frictionless; each touch's force
-// shared by its element's nodes as (1 − s, s), as statics.h collider_push
+// shared by its element's nodes as (1 − s, s), as static_colliders.h collider_push
 // places it). J = ∂r/∂p is exact from one-sided differences (r is affine)
 // and sparse (a rest strain reaches the cells beside its own), grouped as
 // statics.h does: 18 residuals per rod.

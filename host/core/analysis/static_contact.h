@@ -9,7 +9,7 @@
 //   contact_groups      the rods whose boxes (rod_boxes, box_union) overlap,
 //                       joined into groups solved together (union–find)
 //
-// The law is collider_push's (host/core/analysis/statics.h): a pair of
+// The law is collider_push's (host/core/analysis/static_colliders.h): a pair of
 // elements whose gap g (kernels/contact.h pair_geometry: |d| − r_a − r_b,
 // or the tight-loop chord for near elements of one rod) is negative pushes
 // them apart along d/|d| with

@@ -106,6 +106,55 @@ Eigen::VectorXd static_residual(RodBatch<double>& b, const RodDofs& d, std::arra
   return res;
 }
 
+// The colliders' part of the residual alone (their push and friction on
+// rod at.rod's nodes, every rod's for −1), ordered as static_residual's
+// (the elements' rows zero): the Jacobian takes its differences with a
+// step of its own (collider_step).
+inline Eigen::VectorXd collider_residual(const RodBatch<double>& b, const RodDofs& d, std::array<Array<double>, 3>& f,
+                                         const ResidualAt& at) {
+  const int r0 = at.rod < 0 ? 0 : at.rod, r1 = at.rod < 0 ? b.rod_count() : at.rod + 1;
+  for (int rr = r0; rr < r1; ++rr) {
+    const RodInfo& rod = b.rods[std::size_t(rr)];
+    for (int k = rod.offset + 1; k <= rod.offset + 1 + rod.elements; ++k) f[0][k] = f[1][k] = f[2][k] = 0;
+    collider_push(b, rr, *at.colliders, f, at.current_anchors);
+  }
+  Eigen::VectorXd res = Eigen::VectorXd::Zero(d.size());
+  int i = 0;
+  for (int k : d.node_slots)
+    for (int a = 0; a < 3; ++a) res[i++] = f[a][k];
+  return res;
+}
+
+// The difference step (m) for the colliders' part of the Jacobian: a
+// quarter of the shallowest pressed touch's overlap — the push is
+// quadratic in the overlap there, so a central difference that stays on one
+// side of the surface is exact, and one across it is not: a steel wire's
+// weight presses it nanometres into a floor, far less than the step h of
+// the rods' terms (1e-6 L), whose differences across the surface left
+// Newton converging linearly to a stall — and a tenth of the friction's
+// stick length; at most h, at least 1e-10 L (round-off).
+inline double collider_step(const RodBatch<double>& b, const ResidualAt& at, double h, double length) {
+  double step = h;
+  const ConstStateView<double> s = b.state_view();
+  const int r0 = at.rod < 0 ? 0 : at.rod, r1 = at.rod < 0 ? b.rod_count() : at.rod + 1;
+  for (int rr = r0; rr < r1; ++rr) {
+    const RodInfo& rod = b.rods[std::size_t(rr)];
+    for (int e = 0; e < rod.elements; ++e) {
+      const int k = rod.offset + 1 + e;
+      const double radius = rod.element_radius(e);
+      for (const ColliderFrame<double>& col : *at.colliders) {
+        Touch<double> t[3];
+        const int count = collider_touches(col, load3(s.node_x, k), load3(s.node_x, k + 1), radius, t);
+        for (int i = 0; i < count; ++i) {
+          if (t[i].gap < 0) step = std::min(step, -0.25 * t[i].gap);
+          if (t[i].gap < 0.1 * radius && (col.mu[0] > 0 || col.mu[2] > 0)) step = std::min(step, 0.1 * kStickLength * radius);
+        }
+      }
+    }
+  }
+  return std::max(step, 1e-10 * length);
+}
+
 // Rod r's unknowns: its free nodes and its free elements (a clamped
 // interior node holds the frames on either side).
 inline RodDofs rod_dofs(const RodBatch<double>& b, int r) {
@@ -165,7 +214,7 @@ inline void apply_dof(RodBatch<double>& b, const RodDofs& d, int col, double h) 
 // the one column within its reach — the same numbers as one column at a
 // time (tests/test_statics.cpp), with 2 × 6 × kBand residuals instead of 2
 // per unknown. The state is restored exactly after each group. Each entry
-// within reach goes to store(row, col, value) (grouped), or every entry
+// within reach goes to store(row, col, value), to be added (grouped), or every entry
 // (one column at a time, for the test).
 constexpr int kReach = 2;
 template <Terms kT, class Store>
@@ -181,31 +230,48 @@ void jacobian_entries(RodBatch<double>& b, const RodDofs& d, std::array<Array<do
   std::vector<std::vector<int>> rows_of(static_cast<std::size_t>(cells));  // the unknowns of each cell
   for (int i = 0; i < m; ++i) rows_of[std::size_t(cell[std::size_t(i)])].push_back(i);
   const int groups = grouped ? 6 * kBand : m;
-  for (int gi = 0; gi < groups; ++gi) {
-    group.clear();
-    for (int col = 0; col < m; ++col) {
-      const int comp = col < nn ? col % 3 : 3 + (col - nn) % 3;
-      if (grouped ? (comp == gi / kBand && cell[std::size_t(col)] % kBand == gi % kBand) : col == gi) group.push_back(col);
-    }
-    if (group.empty()) continue;
-    auto shift = [&](double s) {
-      for (int col : group) apply_dof(b, d, col, s * (col < nn ? h_rel * length : h_rel));
-    };
-    shift(1);
-    const Eigen::VectorXd rp = static_residual<kT>(b, d, f, c, at);
-    shift(-2);
-    const Eigen::VectorXd rm = static_residual<kT>(b, d, f, c, at);
-    shift(1);
-    for (int col : group) {
-      const double h = col < nn ? h_rel * length : h_rel;
-      if (!grouped) {
-        for (int row = 0; row < m; ++row) store(row, col, (rp[row] - rm[row]) / (2 * h));
-        continue;
+  // one pass of differences: the residual res() with each unknown's step
+  // (0: the unknown is left out of this pass)
+  auto pass = [&](auto&& res, auto&& step_of) {
+    for (int gi = 0; gi < groups; ++gi) {
+      group.clear();
+      for (int col = 0; col < m; ++col) {
+        const int comp = col < nn ? col % 3 : 3 + (col - nn) % 3;
+        if ((grouped ? (comp == gi / kBand && cell[std::size_t(col)] % kBand == gi % kBand) : col == gi) && step_of(col) > 0)
+          group.push_back(col);
       }
-      const int cc = cell[std::size_t(col)];
-      for (int rc = std::max(0, cc - kReach); rc <= std::min(cells - 1, cc + kReach); ++rc)
-        for (int row : rows_of[std::size_t(rc)]) store(row, col, (rp[row] - rm[row]) / (2 * h));
+      if (group.empty()) continue;
+      auto shift = [&](double s) {
+        for (int col : group) apply_dof(b, d, col, s * step_of(col));
+      };
+      shift(1);
+      const Eigen::VectorXd rp = res();
+      shift(-2);
+      const Eigen::VectorXd rm = res();
+      shift(1);
+      for (int col : group) {
+        const double h = step_of(col);
+        if (!grouped) {
+          for (int row = 0; row < m; ++row) store(row, col, (rp[row] - rm[row]) / (2 * h));
+          continue;
+        }
+        const int cc = cell[std::size_t(col)];
+        for (int rc = std::max(0, cc - kReach); rc <= std::min(cells - 1, cc + kReach); ++rc)
+          for (int row : rows_of[std::size_t(rc)]) store(row, col, (rp[row] - rm[row]) / (2 * h));
+      }
     }
+  };
+  // The rods' terms and loads with the step h; the colliders' push and
+  // friction (position unknowns only) with their own (collider_step); the
+  // entries of the two passes add.
+  const bool colliders = at.colliders && !at.colliders->empty();
+  ResidualAt body = at;
+  if (colliders) body.colliders = nullptr;
+  pass([&] { return static_residual<kT>(b, d, f, c, body); },
+       [&](int col) { return col < nn ? h_rel * length : h_rel; });
+  if (colliders) {
+    const double hc = collider_step(b, at, h_rel * length, length);
+    pass([&] { return collider_residual(b, d, f, at); }, [&](int col) { return col < nn ? hc : 0.0; });
   }
 }
 
@@ -215,7 +281,7 @@ Eigen::MatrixXd residual_jacobian(RodBatch<double>& b, const RodDofs& d, std::ar
                                   std::array<Array<double>, 3>& c, double length, double h_rel,
                                   bool grouped = true) {
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(d.size(), d.size());
-  jacobian_entries<kT>(b, d, f, c, length, h_rel, grouped, [&](int row, int col, double v) { J(row, col) = v; });
+  jacobian_entries<kT>(b, d, f, c, length, h_rel, grouped, [&](int row, int col, double v) { J(row, col) += v; });
   return J;
 }
 
@@ -267,7 +333,7 @@ void banded_jacobian(RodBatch<double>& b, const RodDofs& d, std::array<Array<dou
   jacobian_entries<kT>(
       b, d, f, c, length, h_rel, true,
       [&](int row, int col, double v) {
-        J.B(J.pos[std::size_t(row)], J.pos[std::size_t(col)] - J.pos[std::size_t(row)] + w) = v;
+        J.B(J.pos[std::size_t(row)], J.pos[std::size_t(col)] - J.pos[std::size_t(row)] + w) += v;
       },
       at);
 }
@@ -644,7 +710,15 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     }
   }
   out.warm = warm;
-  auto loads = [&](double lam) { return warm ? 1.0 : lam; };  // (a warm group's loads stay full)
+  // The load path: the loads and the driven holds reach their full values
+  // together (a warm group's loads stay full: only its holds walk). With
+  // friction at the colliders the path has two legs, the loads first with
+  // the holds where they are, then the holds walked under the full loads:
+  // friction is path-dependent, and a cable dragged by its connector lies
+  // under its whole weight while it is dragged (walked together, the
+  // holds would move the rods while their friction is a fraction of it).
+  bool full = warm, walking = true;
+  auto loads = [&](double lam) { return full ? 1.0 : lam; };
   auto residual = [&](double lam, std::vector<ElementPair>* touching = nullptr) {
     return group_residual<kT>(b, g, f, c, loads(lam), colliders, touching);
   };
@@ -851,44 +925,56 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     out.residual_force = worst.residual_force, out.residual_couple = worst.residual_couple, out.worst_node = worst.worst_node;
   };
   const double largest = warm ? 1.0 : 1.0 / std::max(1, opt.load_steps);
-  double lam = 0, inc = largest;
-  int failures = 0;
-  keep(true);
-  while (lam < 1) {
-    const double next = 1 - lam <= inc * (1 + 1e-9) ? 1.0 : lam + inc;
-    place_holds(b, paths, next);
-    int its = 0;
-    const bool ok = !(g.contact && overlap_too_deep(b, rods)) && newton(next, its);
-    out.iterations += its;
-    if (ok) {
-      lam = next;
-      ++out.increments;
-      anchor();  // (the force is unchanged: the equilibrium holds)
-      keep(true);
-      if (its <= 4) inc = std::min(2 * inc, largest);
-      continue;
+  auto holds = [&](double lam) { place_holds(b, paths, walking ? lam : 0.0); };
+  // one leg of the load path, lam from 0 to 1; false (out says why) where
+  // it fails
+  auto leg = [&] {
+    double lam = 0, inc = largest;
+    int failures = 0;
+    keep(true);
+    while (lam < 1) {
+      const double next = 1 - lam <= inc * (1 + 1e-9) ? 1.0 : lam + inc;
+      holds(next);
+      int its = 0;
+      const bool ok = !(g.contact && overlap_too_deep(b, rods)) && newton(next, its);
+      out.iterations += its;
+      if (ok) {
+        lam = next;
+        ++out.increments;
+        anchor();  // (the force is unchanged: the equilibrium holds)
+        keep(true);
+        if (its <= 4) inc = std::min(2 * inc, largest);
+        continue;
+      }
+      keep(false);  // back to lam
+      // Are the rods a mechanism under their loads here? (The banded LU may
+      // "solve" a singular J through a pivot of round-off size; the dense
+      // rank-revealing QR says, at the first failure and at the last.)
+      if (!out.mechanism && (++failures == 1 || inc * 0.5 < opt.min_load_step) && m <= kDenseDiagnosis) {
+        const Eigen::VectorXd r0 = residual(next, &touching);
+        jacobian(next);
+        out.mechanism = singular_against(dense(), r0, out.zero_modes);
+        keep(false);  // (the Jacobian's ±h steps leave round-off)
+      }
+      holds(lam);
+      inc *= 0.5;
+      if (out.mechanism || inc < opt.min_load_step) {
+        out.ok = false;
+        out.lambda = lam;
+        holds(std::min(1.0, lam + 2 * inc));
+        judge(std::min(1.0, lam + 2 * inc));
+        holds(lam);
+        return false;
+      }
     }
-    keep(false);  // back to lam
-    // Are the rods a mechanism under their loads here? (The banded LU may
-    // "solve" a singular J through a pivot of round-off size; the dense
-    // rank-revealing QR says, at the first failure and at the last.)
-    if (!out.mechanism && (++failures == 1 || inc * 0.5 < opt.min_load_step) && m <= kDenseDiagnosis) {
-      const Eigen::VectorXd r0 = residual(next, &touching);
-      jacobian(next);
-      out.mechanism = singular_against(dense(), r0, out.zero_modes);
-      keep(false);  // (the Jacobian's ±h steps leave round-off)
-    }
-    place_holds(b, paths, lam);
-    inc *= 0.5;
-    if (out.mechanism || inc < opt.min_load_step) {
-      out.ok = false;
-      out.lambda = lam;
-      place_holds(b, paths, std::min(1.0, lam + 2 * inc));
-      judge(std::min(1.0, lam + 2 * inc));
-      place_holds(b, paths, lam);
-      return out;
-    }
+    return true;
+  };
+  if (friction && !warm && !paths.empty()) {
+    walking = false;  // the loads, the holds where they are
+    if (!leg()) return out;
+    full = walking = true;  // the holds, under the full loads
   }
+  if (!leg()) return out;
   judge(1.0);
   return out;
 }
