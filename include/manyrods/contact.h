@@ -191,9 +191,11 @@ struct ContactData {
   // tolerance from any guess), but part of the state a checkpoint keeps,
   // so that a continued run goes on bit for bit
   std::vector<std::vector<SolveImpulse<T>>> solve_impulses;
-  // [rods] each rod's collider contacts sticking in the last static solve
-  // (host/core/analysis/static_friction.h): its friction's memory, so that
-  // a re-solve after a hold moves keeps what the rods rest on
+  // [rods] each rod's collider contacts (node, collider) in the last static
+  // solve, pressed or just touching, each with the point where it sticks
+  // (host/core/analysis/static_colliders.h): the friction's memory, so
+  // that a re-solve after a hold moves keeps where the rods rest; matched
+  // to colliders by index (set_contact starts them afresh)
   std::vector<std::vector<StaticAnchor>> static_anchors;
 };
 

@@ -38,9 +38,10 @@ struct StaticResult {
   // walked, the whole way in one increment where Newton allows
   int warm_rods = 0;
   // Collider contacts with friction at the end (docs/model.md "Static
-  // equilibrium", Friction): nodes stuck to the collider where they first
-  // touched it, and nodes at the friction limit (slipping: their friction
-  // is μ times their push)
+  // equilibrium", Friction at the colliders), each a node pressed on a
+  // collider: stuck where it first touched it, or at the friction limit
+  // (slipping: its friction on the cone, μ times its push across the rod,
+  // μa along it)
   int sticking = 0, slipping = 0;
   double last_update = 0;   // the largest last Newton update of a rod
   // What is left out of balance: the largest |force| on a free node (N)
@@ -50,7 +51,8 @@ struct StaticResult {
   // When not converged: the first rod without an equilibrium, its node
   // with the largest residual force, the load fraction it reached (with
   // friction at a collider and holds that walk, the loads come first and
-  // then the holds: on that second leg, the fraction of the walk), and
+  // then the holds: on that second leg, holds_walk, the fraction of the
+  // walk), and
   // whether it is a mechanism under its loads (its stiffness matrix has
   // zero_modes zero-energy motions along which the loads push: a free rod
   // in gravity, a pendulum away from its vertical) or the Newton solve
@@ -59,6 +61,7 @@ struct StaticResult {
   double load_reached = 1;
   int zero_modes = 0;
   bool mechanism = false;
+  bool holds_walk = false;
 };
 
 // Solves for static equilibrium under the batch's current loads and gravity

@@ -161,10 +161,9 @@ inline AnchorForce anchor_force(const RodBatch<double>& b, int r, const StaticAn
   return out;
 }
 
-// Rod r's pushes per node and collider.
-inline NodePushes node_pushes(const RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& frames) {
+// Rod r's pushes per node and collider, into np (its storage reused).
+inline void node_pushes(const RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& frames, NodePushes& np) {
   const RodInfo& rod = b.rods[std::size_t(r)];
-  NodePushes np;
   np.first = rod.offset + 1, np.colliders = int(frames.size());
   np.P.assign(std::size_t((rod.elements + 1) * np.colliders), vec3<double>{0, 0, 0});
   np.near.assign(np.P.size(), 0);
@@ -172,7 +171,6 @@ inline NodePushes node_pushes(const RodBatch<double>& b, int r, const std::vecto
     np.at(k, ci) = np.at(k, ci) + v;
     if (w > 0) np.near[std::size_t((k - np.first) * np.colliders + ci)] = 1;
   });
-  return np;
 }
 
 // The anchor's node is where the solve that placed it left it.
@@ -195,7 +193,8 @@ inline void collider_push(const RodBatch<double>& b, int r, const std::vector<Co
     });
     return;
   }
-  NodePushes np = node_pushes(b, r, frames);
+  thread_local NodePushes np;  // (a residual's scratch: the Jacobian takes 60 residuals)
+  node_pushes(b, r, frames, np);
   for (std::size_t i = 0; i < np.P.size(); ++i) {
     const int k = np.first + int(i) / np.colliders;
     f[0][k] += np.P[i].x, f[1][k] += np.P[i].y, f[2][k] += np.P[i].z;
@@ -217,7 +216,8 @@ struct AnchorCount {
 inline AnchorCount update_anchors(RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& frames) {
   AnchorCount out;
   std::vector<StaticAnchor>& old = b.contact.static_anchors[std::size_t(r)];
-  NodePushes np = node_pushes(b, r, frames);
+  NodePushes np;
+  node_pushes(b, r, frames, np);
   std::vector<StaticAnchor> now;
   std::size_t o = 0;
   for (std::size_t i = 0; i < np.P.size(); ++i) {

@@ -477,6 +477,7 @@ struct RodOutcome {
   bool warm = false;  // started in equilibrium under the full loads
   int rod = -1;       // the rod with the largest residual force (of a group)
   int stick = 0, slip = 0;  // collider contacts with friction: sticking, at the friction limit
+  bool walk = false;        // on the holds' walk under the full loads (the second leg, with friction)
 };
 
 // The largest |force| on a free node and |couple| on a free element of the
@@ -665,8 +666,13 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     paths.insert(paths.end(), p.begin(), p.end());
   }
   const int m = g.size();
-  if (m == 0) {  // every unknown held: only the holds move
+  if (m == 0) {  // every unknown held: only the holds move (and their anchors follow)
     place_holds(b, paths, 1);
+    if (colliders && static_friction(*colliders))
+      for (int r : rods) {
+        const AnchorCount n = update_anchors(b, r, *colliders);
+        out.stick += n.stick, out.slip += n.slip;
+      }
     return out;
   }
   // Warm: the rods are already in equilibrium under their full loads (a
@@ -931,6 +937,7 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
   auto leg = [&] {
     double lam = 0, inc = largest;
     int failures = 0;
+    bool retrying = false;  // a first "mechanism" is being tried again at a small increment
     keep(true);
     while (lam < 1) {
       const double next = 1 - lam <= inc * (1 + 1e-9) ? 1.0 : lam + inc;
@@ -943,6 +950,7 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
         ++out.increments;
         anchor();  // (the force is unchanged: the equilibrium holds)
         keep(true);
+        retrying = false;
         if (its <= 4) inc = std::min(2 * inc, largest);
         continue;
       }
@@ -958,6 +966,20 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
       }
       holds(lam);
       inc *= 0.5;
+      // A mechanism has no equilibrium at any load; a rod whose soft modes
+      // the diagnosis cannot tell from zero ones (a stiff hair: its bending
+      // 1e-9 of its shear, the pivots' threshold 1e-8) has one, which a
+      // smaller increment reaches. So the first diagnosis of a mechanism is
+      // tried once more, at a sixteenth of the increment: a failure there
+      // confirms it.
+      if (retrying) {
+        out.mechanism = true;
+      } else if (out.mechanism) {
+        retrying = true;
+        out.mechanism = false;
+        inc = std::max(opt.min_load_step, inc / 16);
+        continue;
+      }
       if (out.mechanism || inc < opt.min_load_step) {
         out.ok = false;
         out.lambda = lam;
@@ -969,10 +991,14 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     }
     return true;
   };
-  if (friction && !warm && !paths.empty()) {
+  const bool moves = std::any_of(paths.begin(), paths.end(), [](const HoldPath& h) {
+    return norm(h.x1 - h.x0) > 0 || norm(h.psi[0]) > 0 || norm(h.psi[1]) > 0;
+  });
+  if (friction && !warm && moves) {
     walking = false;  // the loads, the holds where they are
     if (!leg()) return out;
     full = walking = true;  // the holds, under the full loads
+    out.walk = true;
   }
   if (!leg()) return out;
   judge(1.0);
@@ -1132,6 +1158,7 @@ StaticResult solve_static(RodBatch<double>& b, const StaticOptions& opt) {
     res.failed_rod = o.rod;
     res.failed_node = o.worst_node;
     res.load_reached = o.lambda;
+    res.holds_walk = o.walk;
     res.residual_force = o.residual_force;
     res.residual_couple = o.residual_couple;
     res.zero_modes = o.zero_modes;

@@ -477,7 +477,9 @@ std::string static_failure(const StaticResult& r, const RodBatch<double>& b, con
        << "; residual force " << r.residual_force << " N at node " << r.failed_node
        << "): hold it (a clamped root, a pinned tip), or take off the load that moves it";
   else
-    os << "Newton's method did not converge beyond load fraction " << r.load_reached << " (residual force "
+    os << "Newton's method did not converge beyond "
+       << (r.holds_walk ? "a fraction " : "load fraction ") << r.load_reached
+       << (r.holds_walk ? " of the driven holds' walk to their poses, under the full loads" : "") << " (residual force "
        << r.residual_force << " N at node " << r.failed_node << ", couple " << r.residual_couple
        << " N m): the equilibrium path snaps through or ends there";
   return os.str();
