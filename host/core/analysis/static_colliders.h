@@ -62,9 +62,10 @@
 namespace manyrods::detail {
 
 // Each touch's push on rod r's nodes: visit(node slot, collider index,
-// the node's share of the touch, the push's share on the node), for the
-// touches with gap below δ (a touch not yet pressed, g ≥ 0, pushes zero: it
-// is near enough for friction to hold it where it touches).
+// the node's share of the touch, the push's share on the node, the gap g,
+// the law's width δ), for the touches with gap below δ (a touch not yet
+// pressed, g ≥ 0, pushes zero: it is near enough for friction to hold it
+// where it touches).
 template <class Visit>
 void each_collider_push(const RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& frames, Visit&& visit) {
   const RodInfo& rod = b.rods[std::size_t(r)];
@@ -81,8 +82,8 @@ void each_collider_push(const RodBatch<double>& b, int r, const std::vector<Coll
         const double g = t[i].gap;
         if (!(g < delta)) continue;
         const double p = g >= 0 ? 0.0 : g > -delta ? stiff * g * g / (2 * delta) : stiff * (-g - delta / 2);
-        visit(k, int(ci), 1 - t[i].s, ((1 - t[i].s) * p) * t[i].n);
-        visit(k + 1, int(ci), t[i].s, (t[i].s * p) * t[i].n);
+        visit(k, int(ci), 1 - t[i].s, ((1 - t[i].s) * p) * t[i].n, g, delta);
+        visit(k + 1, int(ci), t[i].s, (t[i].s * p) * t[i].n, g, delta);
       }
     }
   }
@@ -117,6 +118,11 @@ struct NodePushes {
   vec3<double>& at(int k, int ci) { return P[std::size_t((k - first) * colliders + ci)]; }
 };
 
+// The collider's rotation body → lab (x = R X + c).
+inline mat3<double> collider_rotation(const ColliderFrame<double>& c) {
+  return {{c.R[0], c.R[1], c.R[2], c.R[3], c.R[4], c.R[5], c.R[6], c.R[7], c.R[8]}};
+}
+
 // The friction of anchor a on its node (pushed by P): the force f, the
 // anchor in the lab, the slip u from it, the stick length ε, and whether
 // the node slips (|u| > ε).
@@ -132,9 +138,7 @@ inline AnchorForce anchor_force(const RodBatch<double>& b, int r, const StaticAn
   const ConstStateView<double> s = b.state_view();
   const int k = a.node, lo = rod.offset + 1, hi = rod.offset + 1 + rod.elements;
   const vec3<double> x = load3(s.node_x, k);
-  out.anchor = vec3<double>{c.R[0] * a.X[0] + c.R[1] * a.X[1] + c.R[2] * a.X[2] + c.c[0],
-                            c.R[3] * a.X[0] + c.R[4] * a.X[1] + c.R[5] * a.X[2] + c.c[1],
-                            c.R[6] * a.X[0] + c.R[7] * a.X[1] + c.R[8] * a.X[2] + c.c[2]};
+  out.anchor = mul(collider_rotation(c), vec3<double>{a.X[0], a.X[1], a.X[2]}) + vec3<double>{c.c[0], c.c[1], c.c[2]};
   const double p = norm(P);
   if (!(p > 0)) {  // near, not pressed: no friction, and the anchor follows the node
     out.u = x - out.anchor;
@@ -167,7 +171,7 @@ inline void node_pushes(const RodBatch<double>& b, int r, const std::vector<Coll
   np.first = rod.offset + 1, np.colliders = int(frames.size());
   np.P.assign(std::size_t((rod.elements + 1) * np.colliders), vec3<double>{0, 0, 0});
   np.near.assign(np.P.size(), 0);
-  each_collider_push(b, r, frames, [&](int k, int ci, double w, vec3<double> v) {
+  each_collider_push(b, r, frames, [&](int k, int ci, double w, vec3<double> v, double, double) {
     np.at(k, ci) = np.at(k, ci) + v;
     if (w > 0) np.near[std::size_t((k - np.first) * np.colliders + ci)] = 1;
   });
@@ -188,7 +192,7 @@ inline void collider_push(const RodBatch<double>& b, int r, const std::vector<Co
   const std::vector<StaticAnchor>* anchors =
       std::size_t(r) < b.contact.static_anchors.size() ? &b.contact.static_anchors[std::size_t(r)] : nullptr;
   if (!anchors || anchors->empty()) {
-    each_collider_push(b, r, frames, [&](int k, int, double, vec3<double> v) {
+    each_collider_push(b, r, frames, [&](int k, int, double, vec3<double> v, double, double) {
       f[0][k] += v.x, f[1][k] += v.y, f[2][k] += v.z;
     });
     return;
@@ -232,22 +236,22 @@ inline AnchorCount update_anchors(RodBatch<double>& b, int r, const std::vector<
     a.node = k, a.collider = ci;
     const vec3<double> x = load3(b.state_view().node_x, k);
     const bool pressed = norm(np.P[i]) > 0;
-    if (had && !anchor_force(b, r, old[o], c, np.P[i]).slip) {  // sticking: the anchor stays
+    const AnchorForce af = had ? anchor_force(b, r, old[o], c, np.P[i]) : AnchorForce{};
+    if (had && !af.slip) {  // sticking: the anchor stays
       a = old[o];
       out.stick += pressed;
     } else {
-      // new: where the node is; slipping: moved along the slip to where
-      // the sticking force is the returned one (−k_t u' = f)
+      // new, or not pressed: where the node is; slipping: moved along the
+      // slip u to |u| = ε (its force unchanged)
       vec3<double> at = x;
       if (had && pressed) {
-        const AnchorForce af = anchor_force(b, r, old[o], c, np.P[i]);
         at = af.anchor + (1 - af.eps / norm(af.u)) * af.u;
         ++out.slip;
       } else {
         out.stick += pressed;
       }
-      const double w[3] = {at.x - c.c[0], at.y - c.c[1], at.z - c.c[2]};  // X = Rᵀ (at − c)
-      for (int j = 0; j < 3; ++j) a.X[j] = c.R[0 + j] * w[0] + c.R[3 + j] * w[1] + c.R[6 + j] * w[2];
+      const vec3<double> X = mul_transpose(collider_rotation(c), at - vec3<double>{c.c[0], c.c[1], c.c[2]});
+      a.X[0] = X.x, a.X[1] = X.y, a.X[2] = X.z;
     }
     a.x[0] = x.x, a.x[1] = x.y, a.x[2] = x.z;
     now.push_back(a);

@@ -135,23 +135,13 @@ inline Eigen::VectorXd collider_residual(const RodBatch<double>& b, const RodDof
 // stick length; at most h, at least 1e-10 L (round-off).
 inline double collider_step(const RodBatch<double>& b, const ResidualAt& at, double h, double length) {
   double step = h;
-  const ConstStateView<double> s = b.state_view();
   const int r0 = at.rod < 0 ? 0 : at.rod, r1 = at.rod < 0 ? b.rod_count() : at.rod + 1;
-  for (int rr = r0; rr < r1; ++rr) {
-    const RodInfo& rod = b.rods[std::size_t(rr)];
-    for (int e = 0; e < rod.elements; ++e) {
-      const int k = rod.offset + 1 + e;
-      const double radius = rod.element_radius(e);
-      for (const ColliderFrame<double>& col : *at.colliders) {
-        Touch<double> t[3];
-        const int count = collider_touches(col, load3(s.node_x, k), load3(s.node_x, k + 1), radius, t);
-        for (int i = 0; i < count; ++i) {
-          if (t[i].gap < 0) step = std::min(step, -0.25 * t[i].gap);
-          if (t[i].gap < 0.1 * radius && (col.mu[0] > 0 || col.mu[2] > 0)) step = std::min(step, 0.1 * kStickLength * radius);
-        }
-      }
-    }
-  }
+  for (int rr = r0; rr < r1; ++rr)
+    each_collider_push(b, rr, *at.colliders, [&](int, int ci, double, vec3<double>, double g, double delta) {
+      if (g < 0) step = std::min(step, -0.25 * g);
+      const ColliderFrame<double>& col = (*at.colliders)[std::size_t(ci)];
+      if (col.mu[0] > 0 || col.mu[2] > 0) step = std::min(step, kStickLength * delta);  // (ε/10: δ = r/10)
+    });
   return std::max(step, 1e-10 * length);
 }
 
@@ -666,23 +656,6 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     paths.insert(paths.end(), p.begin(), p.end());
   }
   const int m = g.size();
-  if (m == 0) {  // every unknown held: only the holds move (and their anchors follow)
-    place_holds(b, paths, 1);
-    if (colliders && static_friction(*colliders))
-      for (int r : rods) {
-        const AnchorCount n = update_anchors(b, r, *colliders);
-        out.stick += n.stick, out.slip += n.slip;
-      }
-    return out;
-  }
-  // Warm: the rods are already in equilibrium under their full loads (a
-  // solve before this one; their holds may have moved since): the loads
-  // stay full and only the holds walk, the whole way in the first
-  // increment. Told by the residual at full load, with the holds where
-  // they are: for each rod, its forces below 1e-6 of the largest force on
-  // a node of the rod (held ones included: they carry the reactions) or of
-  // an external one, and its couples likewise against the couples on the
-  // rod's elements (or, if larger, that force times an element's length).
   // Friction at the colliders: anchors where the rods touch them now (their
   // first contact points; kept ones stay where their solve left them)
   const bool friction = colliders && static_friction(*colliders);
@@ -694,7 +667,20 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
       out.stick += n.stick, out.slip += n.slip;
     }
   };
+  if (m == 0) {  // every unknown held: only the holds move (and their anchors follow)
+    place_holds(b, paths, 1);
+    anchor();
+    return out;
+  }
   anchor();
+  // Warm: the rods are already in equilibrium under their full loads (a
+  // solve before this one; their holds may have moved since): the loads
+  // stay full and only the holds walk, the whole way in the first
+  // increment. Told by the residual at full load, with the holds where
+  // they are: for each rod, its forces below 1e-6 of the largest force on
+  // a node of the rod (held ones included: they carry the reactions) or of
+  // an external one, and its couples likewise against the couples on the
+  // rod's elements (or, if larger, that force times an element's length).
   bool warm = true;
   {
     std::vector<std::array<double, 2>> scale;
