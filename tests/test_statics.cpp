@@ -1043,7 +1043,7 @@ TEST(Statics, ACableOverAFrictionalCapsuleHoldsTipLoadsUpToTheCapstanRatio) {
   // the solve says so.
   const double R = 0.05, r = 0.0005, leg = 0.1, E = 1e9, T1 = 10;
   const int n = 80;
-  auto hang = [&](double mu, double f) {
+  auto hang = [&](double mu, double f, std::vector<Vec3>* shape = nullptr) {
     // nodes on a circle whose chords touch the capsule pressed a twentieth
     // of δ, then two vertical legs
     double a = R + r;
@@ -1072,7 +1072,10 @@ TEST(Statics, ACableOverAFrictionalCapsuleHoldsTipLoadsUpToTheCapstanRatio) {
     set_contact(b, spec);
     b.set_node_force(0, 0, {0, 0, -T1});
     b.set_node_force(0, n, {0, 0, -f * std::exp(mu * kPi) * T1});
-    return solve_static<kNoGravity>(b);
+    const StaticResult out = solve_static<kNoGravity>(b);
+    if (shape)
+      for (int j = 0; j <= n; ++j) shape->push_back(b.position(0, j));
+    return out;
   };
   const double mu = 0.3;
   double lo = 0.9, hi = 1.05;
@@ -1092,4 +1095,22 @@ TEST(Statics, ACableOverAFrictionalCapsuleHoldsTipLoadsUpToTheCapstanRatio) {
   const StaticResult slick = hang(0.0, 1.05);
   EXPECT_FALSE(slick.converged);
   EXPECT_EQ(slick.failed_rod, 0);
+  EXPECT_FALSE(hang(0.0, 1.001).converged);  // (a thousandth more on one side slides it too)
+  // Frictionless with equal loads: an equilibrium, neutral along the
+  // capsule and around it (Newton's matrix singular there: the solve ends
+  // where the residual is round-off). It is the symmetric one — the tips
+  // level, the apex on the capsule's top — to the round-off that the
+  // neutral motions amplify (measured 4e-16 m; asserted 1e-9 L), and the
+  // cable lies on the capsule: the chords beside the apex node pressed into
+  // it by at most the law's δ = r/10 (the node a chord's half-angle above
+  // them).
+  std::vector<Vec3> x;
+  const StaticResult even = hang(0.0, 1.0, &x);
+  ASSERT_TRUE(even.converged);
+  const double length = 2 * leg + kPi * (R + r);
+  EXPECT_LE(std::abs(x[0][2] - x[n][2]), 1e-9 * length);
+  EXPECT_LE(std::abs(x[n / 2][0]), 1e-9 * length);
+  const double chord = std::cos(0.5 * length / n / (R + r));
+  EXPECT_GE(x[n / 2][2] * chord, R + r - 0.1 * r);
+  EXPECT_LE(x[n / 2][2] * chord, R + r);
 }

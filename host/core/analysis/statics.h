@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdlib>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -482,6 +483,32 @@ inline void residual_size(const RodDofs& d, const Eigen::VectorXd& r, int first_
   for (int i = nn; i < nn + int(d.elem_slots.size()); ++i) o.residual_couple = std::max(o.residual_couple, r.segment(3 * i, 3).norm());
 }
 
+// The round-off floor of rod r's residual: the size (force, couple) below
+// which its entries are round-off of the elastic terms, not a state's
+// imbalance. A strain is computed from node differences that carry round-off
+// ε|x| (ε: double's epsilon, |x| the largest coordinate of the rod's nodes,
+// the origin included), so a node's force is known to C_F ε|x|/ℓ (C_F: the
+// element's largest of κGA, EA); a curvature from frames that carry ε, so an
+// element's couple is known to C_M ε/D̂ plus the shear force's C_F ε|x|.
+inline std::array<double, 2> residual_floor(const RodBatch<double>& b, int r) {
+  const RodInfo& rod = b.rods[std::size_t(r)];
+  double x = 0, force = 0, couple = 0;
+  for (int j = 0; j <= rod.elements; ++j)
+    for (int a = 0; a < 3; ++a) x = std::max(x, std::abs(b.state.node_x[a][rod.offset + 1 + j]));
+  for (int e = 0; e < rod.elements; ++e) {
+    const int k = rod.offset + 1 + e;
+    const double cf = std::max({b.model.elem_stiffness[0][k], b.model.elem_stiffness[1][k], b.model.elem_stiffness[2][k]});
+    force = std::max(force, cf / b.model.elem_rest_length[k]);
+    couple = std::max(couple, cf);
+    if (e + 1 < rod.elements) {
+      const double cm = std::max({b.model.vor_stiffness[0][k + 1], b.model.vor_stiffness[1][k + 1], b.model.vor_stiffness[2][k + 1]});
+      couple = std::max(couple, cm / b.model.vor_rest_length[k + 1] / std::max(x, 1e-300));
+    }
+  }
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  return {eps * force * x, eps * couple * x};
+}
+
 // The Newton matrix's rows of the frames' turns about their own d3 get
 // 1e-6 of their diagonal added. Between two ends that leave the frames free
 // (pins, a free end) a rod of isotropic section can spin its frames about
@@ -780,7 +807,27 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
     }
     return upd;
   };
-  // Newton at load fraction lam: true when the update falls below the tolerance.
+  // Whether residual r is round-off: each rod's node forces and element
+  // couples within 16 times its floor (residual_floor; a node's force sums
+  // two elements' forces of three terms each, each known to about the
+  // floor: measured 2–2.6 times it where Newton stalls). There, and where
+  // the updates have stopped shrinking, the state is an equilibrium as far
+  // as double precision can tell: at a neutral equilibrium (a cable over a
+  // frictionless capsule with equal loads, free to slide around it) J is
+  // singular along the motions that cost nothing, and the update along
+  // them is round-off divided by round-off, which never falls below the
+  // tolerance.
+  auto at_floor = [&](const Eigen::VectorXd& r) {
+    for (std::size_t i = 0; i < nr; ++i) {
+      RodOutcome o;
+      residual_size(g.d[i], r.segment(g.start[i], g.d[i].size()), 0, o);
+      const std::array<double, 2> floor = residual_floor(b, rods[i]);
+      if (!(o.residual_force <= 16 * floor[0] && o.residual_couple <= 16 * floor[1])) return false;
+    }
+    return true;
+  };
+  // Newton at load fraction lam: true when the update falls below the
+  // tolerance, or stalls where the residual is round-off (at_floor).
   // A warm group (a re-solve after its holds moved: near its solution, where
   // J hardly changes) keeps its Jacobian from one iteration to the next
   // while the updates shrink at least fourfold (chord steps: a residual
@@ -846,6 +893,10 @@ RodOutcome solve_group(RodBatch<double>& b, const std::vector<int>& rods, const 
       }
       if (!dq.allFinite()) return false;
       const double upd = update_size(dq);
+      // converged: the residual is round-off and a fresh Newton update no
+      // longer shrinks (it would, quadratically, if it were not noise) —
+      // the state is left as it is (docs/model.md "Static equilibrium")
+      if (fresh && iterations > 0 && upd > 0.5 * last && at_floor(r0)) return true;
       // Trust region: a full Newton step far from the solution can jump to
       // another branch of the (non-convex) equilibrium problem; cap it.
       if (upd > opt.max_update) dq *= opt.max_update / upd;
