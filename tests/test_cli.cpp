@@ -1731,3 +1731,58 @@ TEST(Cli, StaticRefusesWhatItCannotSolveAndWritesNothing) {
   EXPECT_EQ(slurp(out), "previous");
   EXPECT_FALSE(fs::exists(out + ".tmp"));
 }
+
+TEST(Cli, CalibrateFitsAModulusToARunOfTheSceneAndNamesBadMeasurements) {
+  // docs/scenes.md "Calibration". Self-consistency: measurements from a run
+  // of a 6-element cantilever (E = 1e6 Pa) are every node's track; the
+  // scene given to calibrate says E = 3e5, the fit searches [1e5, 1e7] in
+  // log and must print E within 1e-4 of 1e6 (the noiseless target; the
+  // misfit's round-off allows far less), write the best fit's run with
+  // /calibration and the CSV.
+  const std::string truth = cantilever(6, 0.5, 0.05, "dt = 2e-4\n");
+  std::string text = truth;
+  text.replace(text.find("dt = \"auto\"\n"), 12, "");
+  const std::string measured = write_scene("cal_truth.toml", std::string(text));
+  text.replace(text.find("youngs_modulus = 1.0e6"), 22, "youngs_modulus = 3.0e5");
+  const std::string scene = write_scene("cal_guess.toml", text);
+  const std::string data = path("cal_data.h5"), out = path("cal_fit.h5"), csv = path("cal_fit.csv");
+  ASSERT_EQ(cli("run " + measured + " -o " + data).status, 0);
+  const std::string fit = " --fit rods.0.material.youngs_modulus=log:1e5:1e7";
+  const Result r = cli("calibrate " + scene + " --data " + data + fit + " --tolerance 1e-6 -o " + out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string line = slurp(path("stdout.txt"));
+  expect_contains(line, "rods.0.material.youngs_modulus = ");
+  const double E = std::stod(line.substr(line.find(" = ") + 3));
+  EXPECT_NEAR(E / 1e6, 1.0, 1e-4) << line;
+  expect_contains(slurp(csv), "rods.0.material.youngs_modulus,");
+  const h5::Reader rd(out);
+  EXPECT_GT(rd.frames(), 1);
+
+  // bad input, each named, nothing written (exit 2)
+  auto refused = [&](const std::string& args, const std::string& says) {
+    fs::remove(path("cal_bad.h5"));
+    const Result b = cli("calibrate " + scene + " " + args + " -o " + path("cal_bad.h5"));
+    EXPECT_EQ(b.status, 2) << args << "\n" << b.err;
+    expect_contains(b.err, says);
+    EXPECT_FALSE(fs::exists(path("cal_bad.h5"))) << args;
+  };
+  const std::string bad_rod = write_scene("cal_rod.csv", "time,track,x,y,z\n0.1,3:0,0,0,0\n");
+  refused("--data " + bad_rod + fit, "cal_rod.csv:2: track '3:0': the scene has no rod 3");
+  const std::string bad_node = write_scene("cal_node.csv", "time,track,x,y,z\n0.1,0:9,0,0,0\n");
+  refused("--data " + bad_node + fit, "rod 0 has no node 9");
+  const std::string nan = write_scene("cal_nan.csv", "time,track,x,y,z\n0.1,0:-1,nan,,nan\n0.2,0:-1,,,\n");
+  refused("--data " + nan + fit, "track '0:-1' has no finite sample");
+  const std::string late = write_scene("cal_late.csv", "time,track,x,y,z\n0.1,0:-1,0,0,0.3\n9.0,0:-1,0,0,0.3\n");
+  refused("--data " + late + fit, "outside the scene's run");
+  const std::string shape = write_scene("cal_shape.csv", "time,track,x,y,z\n0.1,0:-1,0,0\n");
+  refused("--data " + shape + fit, "cal_shape.csv:2: 4 columns, the header has 5");
+  refused("--data " + data + " --fit rods.0.material.youngs_modulus=log:1e5:x", "'x' is not a number");
+  refused("--data " + data + " --fit rods.0.material.youngs_modulus=normal:1e6:0", "no mass");
+  refused("--data " + data + " --fit rods.0.name=1:2", "rods.0.name");
+  // the output onto the measurements or the scene: refused, both intact
+  const std::string before = slurp(data);
+  const Result own = cli("calibrate " + scene + " --data " + data + fit + " -o " + data);
+  EXPECT_EQ(own.status, 2);
+  expect_contains(own.err, "is the input " + data);
+  EXPECT_TRUE(slurp(data) == before);
+}

@@ -5,6 +5,8 @@
 //   manyrods run scene.toml -o out.h5 --from-static        (start from the static equilibrium)
 //   manyrods static scene.toml -o equilibrium.h5 [--at T]   (static equilibrium and the reactions at the holds)
 //   manyrods sweep scene.toml --vary KEY=SPEC [--vary ...] [--design mc|lhs|sobol --samples N --seed S] [--until T] -o sweep.h5 [--csv F]
+//   manyrods calibrate scene.toml --data MEAS --fit KEY=SPEC [--fit ...] -o fit.h5 [--csv F] [--seed S]
+//                  [--population N] [--generations G] [--sigma S]   (fit parameters to measured node tracks)
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
 //   manyrods bench scene.toml [--threads N] [--steps K] [--repeats R] [--warmup W] [--precision P] [--json F]
@@ -28,11 +30,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 
 #include "manyrods/any_batch.h"
 #include "manyrods/bench.h"
+#include "manyrods/calibrate.h"
 #include "manyrods/h5io.h"
 #include "manyrods/isa.h"
 #include "manyrods/runner.h"
@@ -161,10 +165,15 @@ struct Options {
   bool stiff_solve_float = false;
   int repeats = 5;
   std::string json, precision;
+  // calibrate
+  std::vector<std::string> fit;
+  std::string data;
+  int population = 0, generations = 200;
+  double sigma = std::numeric_limits<double>::quiet_NaN(), fit_tolerance = 1e-7;
 };
 
 struct Commands {
-  CLI::App *run, *sweep, *exp, *plot, *bench, *stat;
+  CLI::App *run, *sweep, *exp, *plot, *bench, *stat, *cal;
 };
 
 // (CLI11's PositiveNumber prints the whole range up to DBL_MAX)
@@ -251,7 +260,7 @@ CLI::App* add_sweep_command(CLI::App& app, Options& o) {
 }
 
 Commands add_commands(CLI::App& app, Options& o) {
-  Commands c{add_run_command(app, o), add_sweep_command(app, o), nullptr, nullptr, nullptr, nullptr};
+  Commands c{add_run_command(app, o), add_sweep_command(app, o), nullptr, nullptr, nullptr, nullptr, nullptr};
   c.exp = app.add_subcommand("export", "export an output file (USD ASCII BasisCurves)");
   c.exp->add_option("input", o.input, "manyrods HDF5 output")->required();
   c.exp->add_option("--usd", o.usd, "USD ASCII file to write (.usda)")->required();
@@ -277,6 +286,29 @@ Commands add_commands(CLI::App& app, Options& o) {
   c.stat->add_option("--at", o.at, "time (s) whose poses the driven holds take (default 0)")->check(number_check(false));
   c.stat->add_option("--threads", o.threads, "OpenMP threads (rods solved in parallel; results do not depend on it)")
       ->check(positive);
+  c.cal = app.add_subcommand("calibrate", "fit a scene's parameters to measured node tracks (CMA-ES, each generation one batch)");
+  c.cal->add_option("scene", o.scene_path, "scene file (TOML)")->required();
+  c.cal->add_option("--data", o.data, "the measurements: a CSV (time,track,x,y,z[,sigma]) or a manyrods run output (HDF5)")
+      ->required();
+  c.cal->add_option("--fit", o.fit,
+                    "KEY=lo:hi | KEY=log:lo:hi | KEY=normal:mean:std | KEY=lognormal:median:sigma "
+                    "(e.g. rods.0.material.youngs_modulus=log:1e5:1e7)")
+      ->required()
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  c.cal->add_option("-o,--output", o.output, "output HDF5 file: the best fit's run with /calibration")->required();
+  c.cal->add_option("--csv", o.csv, "the fitted parameters as CSV (default: the output with .csv)");
+  c.cal->add_option("--seed", o.seed, "the optimizer's seed (the result is the same for a seed and any thread count)");
+  c.cal->add_option("--population", o.population, "candidates per generation (default 4 + 3 ln d, at least 8)")
+      ->check(positive);
+  c.cal->add_option("--generations", o.generations, "the budget: at most this many generations (default 200)")
+      ->check(positive);
+  c.cal->add_option("--tolerance", o.fit_tolerance,
+                    "stop when the search's steps fall below this fraction of each range (default 1e-7)")
+      ->check(positive);
+  c.cal->add_option("--sigma", o.sigma, "the tracks' noise (m) where the data give none (default: estimated from the fit)")
+      ->check(positive);
+  c.cal->add_option("--threads", o.threads, "OpenMP threads (results do not depend on it)")->check(positive);
   c.bench->add_flag("--stiff-solve-float", o.stiff_solve_float,
                     "solve a float batch's stiff rods in float (faster; loses the slow motion at frame-rate steps: "
                     "for comparison only)");
@@ -521,6 +553,57 @@ int command_static(const Options& o) {
   return 0;
 }
 
+// `manyrods calibrate`: the fit (include/manyrods/calibrate.h), a line per
+// parameter, the CSV, and the best fit's run with /calibration and
+// /calibration_history into the output (checked, with the CSV, before any
+// work: neither may be an input).
+int command_calibrate(const Options& o) {
+  const std::string text = read_file(o.scene_path);
+  const Scene s = parse_scene(text, o.scene_path);
+  std::vector<std::string> inputs = s.inputs;
+  inputs.push_back(o.data);
+  check_h5_output(o.output, inputs, "-o");
+  const std::string csv = o.csv.empty() ? fs::path(o.output).replace_extension(".csv").string() : o.csv;
+  check_extension(csv, {".csv"}, "--csv", "the fitted parameters (CSV)");
+  inputs.push_back(o.output);
+  check_not_input(csv, inputs, "--csv");
+  std::vector<FitParameter> fit;
+  for (const std::string& f : o.fit) fit.push_back(parse_fit(f));
+  const Measurements data = read_measurements(o.data, s);
+  CalibrateOptions opt;
+  opt.population = o.population;
+  opt.max_generations = o.generations;
+  opt.tolerance = o.fit_tolerance;
+  opt.seed = o.seed;
+  opt.sigma = o.sigma;
+  opt.threads = o.threads;
+  opt.interrupt = &g_interrupt;
+  std::signal(SIGINT, on_sigint);
+  opt.on_generation = [progress = o.progress](int g, double best, double step) {
+    if (progress) std::fprintf(stderr, "\rmanyrods calibrate: generation %d, best misfit %.6g, step %.3g   ", g, best, step);
+  };
+  std::fprintf(stderr, "manyrods calibrate: %zu parameters, %zu tracks at %zu times\n", fit.size(), data.tracks.size(),
+               data.time.size());
+  const Calibration c = calibrate(text, o.scene_path, fit, data, opt);
+  if (o.progress) std::fputc('\n', stderr);
+  if (c.interrupted) {  // nothing written: the best so far on stderr
+    std::fprintf(stderr, "manyrods calibrate: interrupted after %d generations (nothing written); the best so far:\n",
+                 c.generations);
+    for (std::size_t j = 0; j < fit.size(); ++j) std::fprintf(stderr, "  %s = %.6g\n", fit[j].key.c_str(), c.best[j]);
+    return 130;
+  }
+  run_best_fit(text, o.scene_path, c, o.output, o.threads);  // (the best fit's run, with the tables)
+  write_calibration_csv(csv, c);
+  std::fprintf(stderr,
+               "manyrods calibrate: %d generations, %d runs (%s), misfit %.6g over %lld samples%s -> %s, %s\n",
+               c.generations, c.evaluations,
+               c.converged ? "converged" : c.interrupted ? "interrupted" : "the budget reached", c.misfit,
+               static_cast<long long>(c.samples), c.sigma_given ? "" : " (sigma estimated from the residuals)",
+               o.output.c_str(), csv.c_str());
+  for (const std::string& line : calibration_lines(c)) std::printf("%s\n", line.c_str());
+  return 0;
+}
+
 // The exit status of an error (see the top of this file), with its message.
 int report(const std::exception& e) {
   if (dynamic_cast<const SceneError*>(&e) || dynamic_cast<const h5::H5Error*>(&e)) {
@@ -610,6 +693,7 @@ int main(int argc, char** argv) {
     if (c.plot->parsed()) return plot(o.input, o.plot_dir);
     if (c.bench->parsed()) return command_bench(o);
     if (c.stat->parsed()) return command_static(o);
+    if (c.cal->parsed()) return command_calibrate(o);
   } catch (const std::exception& e) {
     return report(e);
   }

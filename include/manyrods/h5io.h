@@ -206,6 +206,11 @@ class Writer {
   // /observables: one dataset per column (include/manyrods/observables.h)
   // holding its one value (a run that is not a sweep).
   void write_observables(const std::vector<Column>& columns);
+  // /<name>: one dataset per column, their order in the attribute "order",
+  // and (rows_attr non-null) the rows' names in the attribute rows_attr
+  // (`manyrods calibrate`: /calibration, /calibration_history).
+  void write_table(const char* name, const std::vector<Column>& columns, const char* rows_attr = nullptr,
+                   const std::vector<std::string>& row_names = {});
   // /holds and /static (Holds above).
   void write_holds(const Holds& holds);
   std::int64_t frames() const;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "bindings.h"
+#include "manyrods/calibrate.h"
 #include "manyrods/h5io.h"
 #include "manyrods/runner.h"
 #include "manyrods/sweep.h"
@@ -137,6 +138,64 @@ void bind_scene_sweep(nb::class_<Scene>& c) {
        "parameters, the per-variation summary and its statistics as NumPy arrays; force_dt as in Scene.run");
 }
 
+// Scene.calibrate: fit parameters to measured node tracks.
+void bind_scene_calibrate(nb::class_<Scene>& c) {
+  c.def(
+       "calibrate",
+       [](const Scene& s, const std::string& data, const std::vector<std::string>& fit, const std::string& output,
+          std::optional<std::string> csv, std::uint64_t seed, int population, int generations, double tolerance,
+          std::optional<double> sigma, int threads) {
+         namespace sc = manyrods::scene;
+         if (threads < 1) throw manyrods::InputError("threads: must be >= 1");
+         std::vector<sc::FitParameter> fp;
+         for (const std::string& f : fit) fp.push_back(sc::parse_fit(f));
+         std::vector<std::string> inputs = s.inputs;
+         inputs.push_back(data);
+         sc::check_h5_output(output, inputs, "output");
+         if (csv) {
+           sc::check_extension(*csv, {".csv"}, "csv", "the fitted parameters (CSV)");
+           inputs.push_back(output);
+           sc::check_not_input(*csv, inputs, "csv");
+         }
+         sc::Calibration r;
+         {
+           nb::gil_scoped_release release;
+           const sc::Measurements m = sc::read_measurements(data, s);
+           sc::CalibrateOptions opt;
+           opt.seed = seed, opt.population = population, opt.max_generations = generations;
+           opt.tolerance = tolerance, opt.threads = threads, opt.interrupt = &g_never;
+           if (sigma) opt.sigma = *sigma;
+           r = sc::calibrate(s.text, s.source, fp, m, opt);
+           sc::run_best_fit(s.text, s.source, r, output, threads);
+           if (csv) sc::write_calibration_csv(*csv, r);
+         }
+         nb::dict d;
+         nb::dict value, sd, determined;
+         for (std::size_t j = 0; j < fp.size(); ++j) {
+           value[fp[j].key.c_str()] = r.best[j];
+           sd[fp[j].key.c_str()] = r.sigma[j];
+           determined[fp[j].key.c_str()] = bool(r.determined[j]);
+         }
+         d["value"] = value;
+         d["sigma"] = sd;
+         d["determined"] = determined;
+         d["misfit"] = r.misfit;
+         d["samples"] = r.samples;
+         d["sigma_given"] = r.sigma_given;
+         d["generations"] = r.generations;
+         d["evaluations"] = r.evaluations;
+         d["converged"] = r.converged;
+         d["lines"] = sc::calibration_lines(r);
+         return d;
+       },
+       "data"_a, "fit"_a, "output"_a, nb::kw_only(), "csv"_a = nb::none(), "seed"_a = 1, "population"_a = 0,
+       "generations"_a = 200, "tolerance"_a = 1e-7, "sigma"_a = nb::none(), "threads"_a = 1,
+       "Fit parameters to measured node tracks (`manyrods calibrate`): data = a CSV (time,track,x,y,z[,sigma]) or a "
+       "manyrods run output, fit = ['rods.0.material.youngs_modulus=log:1e5:1e7', …]; CMA-ES, each generation one "
+       "batch; writes the best fit's run to output (and csv); returns value, sigma (Laplace estimate; NaN where "
+       "not determined), determined, misfit, generations, lines ('KEY = VALUE ± SIGMA')");
+}
+
 }  // namespace
 
 void bind_scene(nb::module_& m) {
@@ -176,6 +235,7 @@ void bind_scene(nb::module_& m) {
           "manyrods.StaticError when Newton finds no equilibrium.");
   bind_scene_run(c);
   bind_scene_sweep(c);
+  bind_scene_calibrate(c);
 }
 
 // ---- the module's functions: scene files and text, output files

@@ -872,3 +872,45 @@ def test_friction_in_static_equilibrium_is_remembered_for_a_re_solve():
     assert again["warm_rods"] == 1 and again["load_increments"] == 1
     back = b.solve_static(at=0.5)
     assert back["converged"] and back["sticking"] + back["slipping"] == 40
+
+
+def test_calibrate_recovers_a_modulus_from_a_measured_tip_track_csv(tmp_path):
+    # docs/python.md "Scenes": Scene.calibrate as `manyrods calibrate`.
+    # Self-consistency: the tip of a 6-element cantilever at E = 1e6 Pa,
+    # measured every 0.05 s from its own run (noiseless, given sigma 1 mm),
+    # written as the CSV a user would; the fit from E = 3e5 must recover 1e6
+    # to 1e-4 (the noiseless target), its sigma a finite number.
+    def beam(E):
+        return textwrap.dedent("""\
+            [simulation]
+            dt = 2e-4
+            duration = 0.5
+            output_interval = 0.05
+            [[rods]]
+            name = "beam"
+            elements = 6
+            length = 0.3
+            initial_tip_force = [0.005, 0.0, 0.0]
+            section = { shape = "rectangle", width = 0.01, height = 0.01 }
+            material = { density = 1000.0, youngs_modulus = %r, poisson_ratio = 0.3 }
+            damping = { tau_shear = 0.02, tau_extension = 0.02 }
+            """ % E)
+    manyrods.parse_scene(beam(1e6), "truth.toml").run(str(tmp_path / "truth.h5"))
+    out = manyrods.read_output(str(tmp_path / "truth.h5"))
+    tip = out["node_position"][:, -1, :]
+    with open(tmp_path / "tip.csv", "w") as f:
+        f.write("time,track,x,y,z,sigma\n")
+        for t, x in zip(out["time"], tip):
+            f.write("%.17g,0:-1,%.17g,%.17g,%.17g,0.001\n" % (t, x[0], x[1], x[2]))
+    s = manyrods.parse_scene(beam(3e5), "guess.toml")
+    key = "rods.0.material.youngs_modulus"
+    r = s.calibrate(str(tmp_path / "tip.csv"), [key + "=log:1e5:1e7"], str(tmp_path / "fit.h5"),
+                    csv=str(tmp_path / "fit.csv"), tolerance=1e-6)
+    assert r["value"][key] == pytest.approx(1e6, rel=1e-4)
+    assert r["determined"][key] and math.isfinite(r["sigma"][key])
+    assert r["sigma_given"] and r["lines"][0].startswith(key + " = ")
+    assert (tmp_path / "fit.h5").exists() and (tmp_path / "fit.csv").exists()
+    with pytest.raises(ValueError, match="not a number"):
+        s.calibrate(str(tmp_path / "tip.csv"), [key + "=log:1:x"], str(tmp_path / "bad.h5"))
+    with pytest.raises(ValueError, match="is the input"):
+        s.calibrate(str(tmp_path / "truth.h5"), [key + "=log:1e5:1e7"], str(tmp_path / "truth.h5"))

@@ -497,6 +497,13 @@ void Writer::add_sweep_table(const char* name, const std::vector<Column>& column
   attr_string(t.get(), rows_attr, lines(row_names), w.tmp);
 }
 
+void Writer::write_table(const char* name, const std::vector<Column>& columns, const char* rows_attr,
+                         const std::vector<std::string>& row_names) {
+  Impl& w = *impl_;
+  const Id t = column_group(w.file.get(), name, columns, w.tmp);
+  if (rows_attr) attr_string(t.get(), rows_attr, lines(row_names), w.tmp);
+}
+
 void Writer::write_sweep(const std::vector<Column>& parameters, const std::vector<Column>& summary,
                          const std::vector<std::int32_t>& variation_first_rod, int sensitivity_base) {
   Impl& w = *impl_;

@@ -1005,12 +1005,13 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
   for (std::size_t i = 0; i < parts.size(); ++i) {
     const bool last = i + 1 == parts.size();
     const std::string& p = parts[i];
+    // keys the schema reads as integers (elsewhere an integer in the file,
+    // `youngs_modulus = 1000000`, is a number that may take any value)
+    const bool integer_key = p == "count" || p == "elements" || p == "columns" || p == "seed";
     if (toml::table* t = cur->as_table()) {
       toml::node* next = t->get(p);
       if (!next) {
         if (!last) bad("no key '" + p + "' in the scene");
-        // keys the schema reads as integers get an integer when the value is whole
-        const bool integer_key = p == "count" || p == "elements" || p == "columns" || p == "seed";
         if (integer_key && o.value == std::floor(o.value) && std::abs(o.value) < 9e18)
           t->insert_or_assign(p, std::int64_t(o.value));
         else
@@ -1019,7 +1020,7 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
         return;
       }
       if (last) {
-        if (next->is_integer()) {
+        if (next->is_integer() && integer_key) {
           if (o.value != std::floor(o.value))
             bad("'" + p + "' is an integer, value " + num(o.value) + " is not");
           t->insert_or_assign(p, std::int64_t(o.value));

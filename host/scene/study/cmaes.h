@@ -1,0 +1,128 @@
+// host/scene/study/cmaes.h — the CMA evolution strategy, (μ/μ_w, λ) with
+// rank-one and rank-μ updates and cumulative step-size adaptation, after
+// Hansen (2016), "The CMA Evolution Strategy: A Tutorial" (arXiv:1604.00772),
+// its default parameters (Table 1):
+//   λ = 4 + ⌊3 ln n⌋, μ = ⌊λ/2⌋, w_i ∝ ln((λ+1)/2) − ln i (i ≤ μ), μ_eff = 1/Σw²
+//   c_σ = (μ_eff + 2)/(n + μ_eff + 5), d_σ = 1 + 2 max(0, √((μ_eff−1)/(n+1)) − 1) + c_σ
+//   c_c = (4 + μ_eff/n)/(n + 4 + 2μ_eff/n), c_1 = 2/((n + 1.3)² + μ_eff)
+//   c_μ = min(1 − c_1, 2(μ_eff − 2 + 1/μ_eff)/((n + 2)² + μ_eff))
+// Generation: y_k = B D z_k (z ~ N(0, I), C = B D² Bᵀ), x_k = m + σ y_k; then
+//   m ← m + σ y_w, y_w = Σ w_i y_{i:λ} (the μ best)
+//   p_σ ← (1 − c_σ) p_σ + √(c_σ(2 − c_σ)μ_eff) C^{−½} y_w
+//   h_σ = [|p_σ|/√(1 − (1 − c_σ)^{2(g+1)}) < (1.4 + 2/(n+1)) E|N(0,I)|]
+//   p_c ← (1 − c_c) p_c + h_σ √(c_c(2 − c_c)μ_eff) y_w
+//   C ← (1 − c_1 − c_μ) C + c_1 (p_c p_cᵀ + (1 − h_σ) c_c(2 − c_c) C) + c_μ Σ w_i y_i y_iᵀ
+//   σ ← σ exp((c_σ/d_σ)(|p_σ|/E|N(0,I)| − 1))
+// The normal numbers come from manyrods/rng.h through the normal quantile
+// (the same on every platform); ties in the ranking keep the candidates'
+// order (a stable sort), so a run is reproducible for a seed.
+//
+// Reads and writes: its own state only.
+#pragma once
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <vector>
+
+#include "manyrods/rng.h"
+#include "manyrods/sampling.h"
+
+namespace manyrods::scene {
+
+class CmaEs {
+ public:
+  // n dimensions, the start mean and step size, λ (≤ 0: the default, at
+  // least 8), the seed
+  CmaEs(int n, const std::vector<double>& mean, double sigma, int lambda, std::uint64_t seed)
+      : n_(n), lambda_(lambda > 0 ? lambda : std::max(8, 4 + int(std::floor(3 * std::log(double(n)))))),
+        sigma_(sigma), rng_{seed} {
+    m_ = Eigen::Map<const Eigen::VectorXd>(mean.data(), n);
+    mu_ = lambda_ / 2;
+    w_.resize(mu_);
+    for (int i = 0; i < mu_; ++i) w_[i] = std::log((lambda_ + 1) / 2.0) - std::log(double(i + 1));
+    w_ /= w_.sum();
+    mueff_ = 1 / w_.squaredNorm();
+    const double nd = n;
+    cs_ = (mueff_ + 2) / (nd + mueff_ + 5);
+    ds_ = 1 + 2 * std::max(0.0, std::sqrt((mueff_ - 1) / (nd + 1)) - 1) + cs_;
+    cc_ = (4 + mueff_ / nd) / (nd + 4 + 2 * mueff_ / nd);
+    c1_ = 2 / ((nd + 1.3) * (nd + 1.3) + mueff_);
+    cmu_ = std::min(1 - c1_, 2 * (mueff_ - 2 + 1 / mueff_) / ((nd + 2) * (nd + 2) + mueff_));
+    chin_ = std::sqrt(nd) * (1 - 1 / (4 * nd) + 1 / (21 * nd * nd));
+    C_ = Eigen::MatrixXd::Identity(n, n);
+    B_ = C_, D_ = Eigen::VectorXd::Ones(n);
+    ps_ = pc_ = Eigen::VectorXd::Zero(n);
+  }
+
+  int lambda() const { return lambda_; }
+  double step() const { return sigma_; }
+  // the longest axis of the search distribution (√ of C's largest eigenvalue)
+  double max_axis() const { return D_.maxCoeff(); }
+  std::vector<double> mean() const { return {m_.data(), m_.data() + n_}; }
+
+  // λ candidates
+  std::vector<std::vector<double>> ask() {
+    y_.assign(std::size_t(lambda_), Eigen::VectorXd(n_));
+    std::vector<std::vector<double>> out(static_cast<std::size_t>(lambda_), std::vector<double>(static_cast<std::size_t>(n_)));
+    for (int k = 0; k < lambda_; ++k) {
+      Eigen::VectorXd z(n_);
+      for (int i = 0; i < n_; ++i) z[i] = normal_quantile(rng_.next() + 0x1.0p-54);
+      y_[std::size_t(k)] = B_ * D_.asDiagonal() * z;
+      const Eigen::VectorXd x = m_ + sigma_ * y_[std::size_t(k)];
+      for (int i = 0; i < n_; ++i) out[std::size_t(k)][std::size_t(i)] = x[i];
+    }
+    return out;
+  }
+
+  // The candidates as evaluated (x: possibly moved back into the feasible
+  // box, which then replaces the sample) and their objective values
+  // (smaller is better; +inf for a failed one).
+  void tell(const std::vector<std::vector<double>>& x, const std::vector<double>& f) {
+    std::vector<int> order(static_cast<std::size_t>(lambda_));
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return f[std::size_t(a)] < f[std::size_t(b)]; });
+    for (int k = 0; k < lambda_; ++k)
+      y_[std::size_t(k)] = (Eigen::Map<const Eigen::VectorXd>(x[std::size_t(k)].data(), n_) - m_) / sigma_;
+    Eigen::VectorXd yw = Eigen::VectorXd::Zero(n_);
+    for (int i = 0; i < mu_; ++i) yw += w_[i] * y_[std::size_t(order[std::size_t(i)])];
+    m_ += sigma_ * yw;
+    const Eigen::MatrixXd Cinvsqrt = B_ * D_.cwiseInverse().asDiagonal() * B_.transpose();
+    ps_ = (1 - cs_) * ps_ + std::sqrt(cs_ * (2 - cs_) * mueff_) * (Cinvsqrt * yw);
+    ++gen_;
+    const double hs_norm = ps_.norm() / std::sqrt(1 - std::pow(1 - cs_, 2.0 * gen_));
+    const bool hs = hs_norm < (1.4 + 2 / (n_ + 1.0)) * chin_;
+    pc_ = (1 - cc_) * pc_ + (hs ? std::sqrt(cc_ * (2 - cc_) * mueff_) : 0.0) * yw;
+    Eigen::MatrixXd rank_mu = Eigen::MatrixXd::Zero(n_, n_);
+    for (int i = 0; i < mu_; ++i) {
+      const Eigen::VectorXd& y = y_[std::size_t(order[std::size_t(i)])];
+      rank_mu += w_[i] * y * y.transpose();
+    }
+    C_ = (1 - c1_ - cmu_) * C_ + c1_ * (pc_ * pc_.transpose() + (hs ? 0.0 : cc_ * (2 - cc_)) * C_) + cmu_ * rank_mu;
+    sigma_ *= std::exp((cs_ / ds_) * (ps_.norm() / chin_ - 1));
+    // C = B D² Bᵀ (symmetrised against round-off)
+    C_ = 0.5 * (C_ + C_.transpose());
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(C_);
+    B_ = eig.eigenvectors();
+    D_ = eig.eigenvalues().cwiseMax(1e-300).cwiseSqrt();
+  }
+
+ private:
+  int n_, lambda_, mu_ = 0, gen_ = 0;
+  double sigma_, mueff_ = 0, cs_ = 0, ds_ = 0, cc_ = 0, c1_ = 0, cmu_ = 0, chin_ = 0;
+  Rng rng_;
+  Eigen::VectorXd m_, w_, ps_, pc_, D_;
+  Eigen::MatrixXd C_, B_;
+  std::vector<Eigen::VectorXd> y_;
+};
+
+// x folded back into [0, 1] by reflection at its ends (periodic with
+// period 2), the bound handling of a box-constrained search.
+inline double reflect_unit(double x) {
+  double r = std::fmod(std::abs(x), 2.0);
+  return r > 1 ? 2 - r : r;
+}
+
+}  // namespace manyrods::scene
