@@ -309,6 +309,8 @@ Commands add_commands(CLI::App& app, Options& o) {
   c.cal->add_option("--sigma", o.sigma, "the tracks' noise (m) where the data give none (default: estimated from the fit)")
       ->check(positive);
   c.cal->add_option("--threads", o.threads, "OpenMP threads (results do not depend on it)")->check(positive);
+  c.cal->add_flag("--no-progress", o.no_progress, "no progress line on stderr (default: shown when stderr is a terminal)");
+  c.cal->add_flag("--progress", o.force_progress, "progress line on stderr even when it is not a terminal");
   c.bench->add_flag("--stiff-solve-float", o.stiff_solve_float,
                     "solve a float batch's stiff rods in float (faster; loses the slow motion at frame-rate steps: "
                     "for comparison only)");

@@ -119,6 +119,7 @@ struct Calibration {
   bool converged = false;         // by the tolerance (else by the budget or an interrupt)
   bool interrupted = false;
   double dt = 0;                  // the step every candidate ran with
+  double duration = 0;            // and how far (the last measured time)
   std::vector<double> history_best;   // per generation: the best χ² so far
   std::vector<double> history_step;   // per generation: the step size σ (in [0, 1] units)
   // the fitted tracks: [track][time][3] at the best parameters
@@ -130,7 +131,7 @@ struct Calibration {
 Calibration calibrate(const std::string& text, const std::string& source, const std::vector<FitParameter>& fit,
                       const Measurements& data, const CalibrateOptions& opt);
 
-// Runs the scene at the best fit (its step the calibration's) into
+// Runs the scene at the best fit (its step and duration the calibration's) into
 // `output` with /calibration (a dataset per key: value, sigma, sigma_theta,
 // determined, lo, hi; the rows' names in its attribute "rows") and
 // /calibration_history (generation, best_misfit, step), as run_scene writes.

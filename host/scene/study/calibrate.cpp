@@ -435,6 +435,7 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
     ev.dt = base.sim.dt;
   }
   c.dt = ev.dt;
+  c.duration = ev.duration;
   for (const Track& t : data.tracks) c.sigma_given = c.sigma_given || !std::isnan(t.sigma);
   c.sigma_given = c.sigma_given || !std::isnan(opt.sigma);
 
@@ -577,6 +578,7 @@ RunResult run_best_fit(const std::string& text, const std::string& source, const
   RunOptions ro;
   ro.output = output;
   ro.threads = threads;
+  ro.duration = c.duration;
   ro.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>&) {
     std::vector<h5::Column> table;
     for (std::size_t j = 0; j < fit.size(); ++j)
