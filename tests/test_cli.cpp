@@ -1783,6 +1783,16 @@ TEST(Cli, CalibrateFitsAModulusToARunOfTheSceneAndNamesBadMeasurements) {
   refused("--data " + data + " --fit rods.0.material.youngs_modulus=log:1e5:x", "'x' is not a number");
   refused("--data " + data + " --fit rods.0.material.youngs_modulus=normal:1e6:0", "no mass");
   refused("--data " + data + " --fit rods.0.name=1:2", "rods.0.name");
+  refused("--data " + data + " --fit rods.0.material.youngs_modulus=lognormal:1e6:0.3",
+          "a prior needs the measurements' noise");
+  refused("--data " + data + fit + fit, "given twice");
+  const std::string twice = write_scene("cal_twice.csv", "time,track,x,y,z\n0.1,0:-1,0,0,0.3\n0.1,0:-1,0,0,0.3\n");
+  refused("--data " + twice + fit, "cal_twice.csv:3: track '0:-1' at time 0.1");
+  {
+    const Result b = cli("calibrate " + scene + " --data " + data + fit + " -o " + path("no_such_dir/fit.h5"));
+    EXPECT_EQ(b.status, 2);
+    expect_contains(b.err, "does not exist (nothing was run)");
+  }
   // the output onto the measurements or the scene: refused, both intact
   const std::string before = slurp(data);
   const Result own = cli("calibrate " + scene + " --data " + data + fit + " -o " + data);

@@ -569,6 +569,14 @@ int command_calibrate(const Options& o) {
   check_extension(csv, {".csv"}, "--csv", "the fitted parameters (CSV)");
   inputs.push_back(o.output);
   check_not_input(csv, inputs, "--csv");
+  // (both written at the end, after the whole calibration: their folders
+  // checked now)
+  for (const std::string& f : {o.output, csv}) {
+    const fs::path dir = fs::path(f).parent_path().empty() ? fs::path(".") : fs::path(f).parent_path();
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) throw SceneError(f + ": the folder " + dir.string() + " does not exist (nothing was run)");
+    if (fs::is_directory(f, ec)) throw SceneError(f + ": is a folder, not a file (nothing was run)");
+  }
   std::vector<FitParameter> fit;
   for (const std::string& f : o.fit) fit.push_back(parse_fit(f));
   const Measurements data = read_measurements(o.data, s);
@@ -594,7 +602,8 @@ int command_calibrate(const Options& o) {
     for (std::size_t j = 0; j < fit.size(); ++j) std::fprintf(stderr, "  %s = %.6g\n", fit[j].key.c_str(), c.best[j]);
     return 130;
   }
-  run_best_fit(text, o.scene_path, c, o.output, o.threads);  // (the best fit's run, with the tables)
+  // the best fit's run, with the tables (Ctrl-C ends it early: exit 130)
+  const RunResult best = run_best_fit(text, o.scene_path, c, o.output, o.threads, &g_interrupt);
   write_calibration_csv(csv, c);
   std::fprintf(stderr,
                "manyrods calibrate: %d generations, %d runs (%s), misfit %.6g over %lld samples%s -> %s, %s\n",
@@ -603,7 +612,8 @@ int command_calibrate(const Options& o) {
                static_cast<long long>(c.samples), c.sigma_given ? "" : " (sigma estimated from the residuals)",
                o.output.c_str(), csv.c_str());
   for (const std::string& line : calibration_lines(c)) std::printf("%s\n", line.c_str());
-  return 0;
+  if (best.interrupted) std::fprintf(stderr, "manyrods calibrate: the best fit's run was interrupted at t = %g s\n", best.time);
+  return best.interrupted ? 130 : 0;
 }
 
 // The exit status of an error (see the top of this file), with its message.

@@ -135,8 +135,11 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
 // `output` with /calibration (a dataset per key: value, sigma, sigma_theta,
 // determined, lo, hi; the rows' names in its attribute "rows") and
 // /calibration_history (generation, best_misfit, step), as run_scene writes.
+// (interrupt: as RunOptions::interrupt; the run then ends early, the tables
+// written.)
 RunResult run_best_fit(const std::string& text, const std::string& source, const Calibration& c,
-                       const std::string& output, int threads);
+                       const std::string& output, int threads,
+                       const volatile std::sig_atomic_t* interrupt = nullptr);
 
 // A line per parameter: "KEY = VALUE ± SIGMA" (or "KEY = VALUE (not
 // determined by the data: ...)").

@@ -1006,7 +1006,9 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
     const bool last = i + 1 == parts.size();
     const std::string& p = parts[i];
     // keys the schema reads as integers (elsewhere an integer in the file,
-    // `youngs_modulus = 1000000`, is a number that may take any value)
+    // `youngs_modulus = 1000000`, is a number that may take any value: a
+    // whole value stays an integer, another becomes a float, which the
+    // schema then refuses where it needs an integer, naming the key)
     const bool integer_key = p == "count" || p == "elements" || p == "columns" || p == "seed";
     if (toml::table* t = cur->as_table()) {
       toml::node* next = t->get(p);
@@ -1020,7 +1022,7 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
         return;
       }
       if (last) {
-        if (next->is_integer() && integer_key) {
+        if (next->is_integer() && (integer_key || (o.value == std::floor(o.value) && std::abs(o.value) < 9e18))) {
           if (o.value != std::floor(o.value))
             bad("'" + p + "' is an integer, value " + num(o.value) + " is not");
           t->insert_or_assign(p, std::int64_t(o.value));
@@ -1041,9 +1043,7 @@ void apply_override(toml::table& root, const Override& o, Ctx& ctx) {
       if (last) {
         toml::node* e = a->get(std::size_t(idx));
         if (!e->is_number()) bad("entry " + p + " is " + type_name(*e) + ", not a number");
-        if (e->is_integer()) {
-          if (o.value != std::floor(o.value))
-            bad("entry " + p + " is an integer, value " + num(o.value) + " is not");
+        if (e->is_integer() && o.value == std::floor(o.value) && std::abs(o.value) < 9e18) {
           a->replace(a->cbegin() + idx, std::int64_t(o.value));
         } else {
           a->replace(a->cbegin() + idx, o.value);

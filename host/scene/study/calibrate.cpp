@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -196,6 +197,7 @@ Measurements read_csv(const std::string& path, const Scene& s) {
     double t;
     std::size_t track;
     std::array<double, 3> x;
+    int line;
   };
   std::vector<Row> rows;
   while (std::getline(in, line)) {
@@ -207,6 +209,7 @@ Measurements read_csv(const std::string& path, const Scene& s) {
       throw SceneError(where + ": " + std::to_string(f.size()) + " columns, the header has " +
                        std::to_string(head.size()));
     Row row;
+    row.line = ln;
     row.t = number(trim(f[0]), where + ": time");
     const std::string name = trim(f[1]);
     std::size_t k = 0;
@@ -235,8 +238,13 @@ Measurements read_csv(const std::string& path, const Scene& s) {
   for (Track& t : m.tracks)
     t.x.assign(m.time.size(), {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
                                std::numeric_limits<double>::quiet_NaN()});
+  std::vector<std::vector<int>> seen(m.tracks.size(), std::vector<int>(m.time.size(), 0));
   for (const Row& r : rows) {
     const std::size_t i = std::size_t(std::lower_bound(m.time.begin(), m.time.end(), r.t) - m.time.begin());
+    if (seen[r.track][i])
+      throw SceneError(path + ":" + std::to_string(r.line) + ": track '" + m.tracks[r.track].name + "' at time " +
+                       trim(std::to_string(r.t)) + " given again (first on line " + std::to_string(seen[r.track][i]) + ")");
+    seen[r.track][i] = r.line;
     m.tracks[r.track].x[i] = r.x;
   }
   return m;
@@ -315,11 +323,11 @@ struct Evaluator {
     if (dt_auto) {
       sw.scene.sim.dt_auto = false;
       sw.scene.sim.dt = dt;
-    } else {
-      // the scene's own step: a candidate stiffer than it allows runs
-      // anyway, blows up and ranks last (not the whole generation refused)
-      sw.scene.sim.force_dt = true;
     }
+    // a candidate stiffer than the step allows (the scene's own step, or
+    // one beyond the corners of the box the auto step was resolved over)
+    // runs anyway, blows up and ranks last: the generation is not refused
+    sw.scene.sim.force_dt = true;
     RunOptions ro;
     ro.output = work;
     ro.threads = opt.threads;
@@ -377,6 +385,10 @@ double prior_term(const std::vector<FitParameter>& fit, const std::vector<double
 
 }  // namespace
 
+namespace {
+std::atomic<std::uint64_t> calibration_count{0};  // (each calibration's batch file its own, threads too)
+}  // namespace
+
 Calibration calibrate(const std::string& text, const std::string& source, const std::vector<FitParameter>& fit,
                       const Measurements& data, const CalibrateOptions& opt) {
   if (fit.empty()) throw SceneError("calibrate: nothing to fit (give --fit KEY=SPEC)");
@@ -401,8 +413,8 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   ev.duration = std::min(base.sim.duration, data.time.back());
   if (!(ev.duration > 0)) ev.duration = base.sim.duration;
   ev.work = (std::filesystem::temp_directory_path() /
-             ("manyrods-calibrate-" + std::to_string(long(::getpid())) + "-" +
-              std::to_string(std::uint64_t(std::hash<std::string>{}(source + text))) + ".h5"))
+             ("manyrods-calibrate-" + std::to_string(long(::getpid())) + "-" + std::to_string(++calibration_count) +
+              "-" + std::to_string(std::uint64_t(std::hash<std::string>{}(source + text))) + ".h5"))
                 .string();
   // dt = "auto": one step for every candidate, the smallest stable step over
   // the corners of the search box (a candidate's misfit must not depend on
@@ -438,6 +450,14 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   c.duration = ev.duration;
   for (const Track& t : data.tracks) c.sigma_given = c.sigma_given || !std::isnan(t.sigma);
   c.sigma_given = c.sigma_given || !std::isnan(opt.sigma);
+  for (std::size_t j = 0; j < d; ++j) {
+    // (a prior weighs against the data in units of their noise: with σ
+    // unknown, σ = 1 m would let it outweigh any data in millimetres)
+    if (fit[j].prior() && !c.sigma_given)
+      throw SceneError("--fit " + fit[j].key + ": a prior needs the measurements' noise (--sigma, or a sigma column)");
+    for (std::size_t i = 0; i < j; ++i)
+      if (fit[i].key == fit[j].key) throw SceneError("--fit " + fit[j].key + ": given twice");
+  }
 
   auto theta_of_u = [&](const std::vector<double>& u) {
     std::vector<double> th(d);
@@ -512,6 +532,15 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
     }
   }
   const std::vector<Evaluator::Tracks> sims = ev.run(pts);
+  if (opt.interrupt && *opt.interrupt) {  // (during the uncertainty's batch: the best, no uncertainty)
+    c.interrupted = true;
+    c.best = pts[0];
+    c.misfit = best;
+    c.sigma.assign(d, std::numeric_limits<double>::quiet_NaN());
+    c.theta_sigma = c.sigma;
+    c.determined.assign(d, false);
+    return c;
+  }
   c.best = pts[0];
   c.misfit = objective(sims[0], th, &c.data_misfit);
   c.fitted = sims[0];
@@ -542,19 +571,25 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   Eigen::VectorXd w(static_cast<Eigen::Index>(d));
   for (std::size_t j = 0; j < d; ++j) w[Eigen::Index(j)] = fit[j].theta_hi() - fit[j].theta_lo();
   const Eigen::MatrixXd Fu = w.asDiagonal() * F * w.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Fu);
-  const Eigen::VectorXd lam = eig.eigenvalues();
-  const Eigen::MatrixXd V = eig.eigenvectors();
+  // the covariance in range units, Σ_k (s²/λ_k) v_k v_kᵀ over F's eigenpairs
+  // (λ_k ≤ 0, a direction the data do not see, as the smallest positive
+  // number: its variance is then far above any range); a parameter whose
+  // deviation exceeds half its range is not determined by the data. A
+  // Jacobian that is not finite (both neighbours of a parameter failed)
+  // determines nothing.
   c.determined.assign(d, true);
   Eigen::MatrixXd cov_u = Eigen::MatrixXd::Zero(Eigen::Index(d), Eigen::Index(d));
-  for (Eigen::Index k = 0; k < Eigen::Index(d); ++k) {
-    const double var = lam[k] > 0 ? s2 / lam[k] : HUGE_VAL;
-    if (!(var <= 0.25)) {  // a deviation above half the range
-      for (Eigen::Index j = 0; j < Eigen::Index(d); ++j)
-        if (V(j, k) * V(j, k) > 0.1) c.determined[std::size_t(j)] = false;
-      continue;
-    }
-    cov_u += var * V.col(k) * V.col(k).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
+  if (Fu.allFinite()) eig.compute(Fu);
+  if (!Fu.allFinite() || eig.info() != Eigen::Success) {
+    c.determined.assign(d, false);
+  } else {
+    const Eigen::VectorXd lam = eig.eigenvalues();
+    const Eigen::MatrixXd V = eig.eigenvectors();
+    for (Eigen::Index k = 0; k < Eigen::Index(d); ++k)
+      cov_u += (s2 / std::max(lam[k], std::numeric_limits<double>::min())) * V.col(k) * V.col(k).transpose();
+    for (std::size_t j = 0; j < d; ++j)
+      c.determined[j] = cov_u(Eigen::Index(j), Eigen::Index(j)) <= 0.25;
   }
   c.covariance.assign(d, std::vector<double>(d));
   c.theta_sigma.resize(d), c.sigma.resize(d);
@@ -569,7 +604,7 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
 }
 
 RunResult run_best_fit(const std::string& text, const std::string& source, const Calibration& c,
-                       const std::string& output, int threads) {
+                       const std::string& output, int threads, const volatile std::sig_atomic_t* interrupt) {
   const std::vector<FitParameter>& fit = c.fit;
   std::vector<Override> best;
   for (std::size_t j = 0; j < fit.size(); ++j) best.push_back({fit[j].key, c.best[j]});
@@ -579,6 +614,7 @@ RunResult run_best_fit(const std::string& text, const std::string& source, const
   ro.output = output;
   ro.threads = threads;
   ro.duration = c.duration;
+  ro.interrupt = interrupt;
   ro.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>&) {
     std::vector<h5::Column> table;
     for (std::size_t j = 0; j < fit.size(); ++j)
@@ -616,7 +652,12 @@ void write_calibration_csv(const std::string& path, const Calibration& c) {
     for (std::size_t j = 0; j < c.fit.size(); ++j)
       out << c.fit[j].key << ',' << c.best[j] << ',' << c.sigma[j] << ',' << (c.determined[j] ? 1 : 0) << ','
           << c.fit[j].value(c.fit[j].theta_lo()) << ',' << c.fit[j].value(c.fit[j].theta_hi()) << ',' << c.misfit << '\n';
-    if (!out) throw SceneError(path + ": cannot write");
+    if (!out) {
+      out.close();
+      std::error_code ignored;
+      std::filesystem::remove(tmp, ignored);
+      throw SceneError(path + ": cannot write");
+    }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);

@@ -15,7 +15,9 @@
 //   σ ← σ exp((c_σ/d_σ)(|p_σ|/E|N(0,I)| − 1))
 // The normal numbers come from manyrods/rng.h through the normal quantile
 // (the same on every platform); ties in the ranking keep the candidates'
-// order (a stable sort), so a run is reproducible for a seed.
+// order (a stable sort), so a run is reproducible for a seed. Recombination
+// uses positive weights only (the tutorial's active, negative weights are
+// left out).
 //
 // Reads and writes: its own state only.
 #pragma once
@@ -84,12 +86,20 @@ class CmaEs {
     std::vector<int> order(static_cast<std::size_t>(lambda_));
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return f[std::size_t(a)] < f[std::size_t(b)]; });
-    for (int k = 0; k < lambda_; ++k)
-      y_[std::size_t(k)] = (Eigen::Map<const Eigen::VectorXd>(x[std::size_t(k)].data(), n_) - m_) / sigma_;
+    // the steps taken (a repaired candidate's, its length under C limited to
+    // √n + 2n/(n + 2) as for injected solutions, Hansen 2011, so that a
+    // reflection far off the distribution does not blow up the paths)
+    const Eigen::MatrixXd Cinvsqrt = B_ * D_.cwiseInverse().asDiagonal() * B_.transpose();
+    const double longest = std::sqrt(double(n_)) + 2.0 * n_ / (n_ + 2.0);
+    for (int k = 0; k < lambda_; ++k) {
+      Eigen::VectorXd& y = y_[std::size_t(k)];
+      y = (Eigen::Map<const Eigen::VectorXd>(x[std::size_t(k)].data(), n_) - m_) / sigma_;
+      const double len = (Cinvsqrt * y).norm();
+      if (len > longest) y *= longest / len;
+    }
     Eigen::VectorXd yw = Eigen::VectorXd::Zero(n_);
     for (int i = 0; i < mu_; ++i) yw += w_[i] * y_[std::size_t(order[std::size_t(i)])];
     m_ += sigma_ * yw;
-    const Eigen::MatrixXd Cinvsqrt = B_ * D_.cwiseInverse().asDiagonal() * B_.transpose();
     ps_ = (1 - cs_) * ps_ + std::sqrt(cs_ * (2 - cs_) * mueff_) * (Cinvsqrt * yw);
     ++gen_;
     const double hs_norm = ps_.norm() / std::sqrt(1 - std::pow(1 - cs_, 2.0 * gen_));
