@@ -419,9 +419,15 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   // dt = "auto": one step for every candidate, the smallest stable step over
   // the corners of the search box (a candidate's misfit must not depend on
   // the others in its generation)
+  // a point u of the search's unit box: its θ, its values
+  auto theta_of_u = [&](const std::vector<double>& u) {
+    std::vector<double> th(d);
+    for (std::size_t j = 0; j < d; ++j) th[j] = fit[j].theta_lo() + u[j] * (fit[j].theta_hi() - fit[j].theta_lo());
+    return th;
+  };
   auto to_values = [&](const std::vector<double>& u) {
-    std::vector<double> v(d);
-    for (std::size_t j = 0; j < d; ++j) v[j] = fit[j].value(fit[j].theta_lo() + u[j] * (fit[j].theta_hi() - fit[j].theta_lo()));
+    std::vector<double> v = theta_of_u(u);
+    for (std::size_t j = 0; j < d; ++j) v[j] = fit[j].value(v[j]);
     return v;
   };
   if (ev.dt_auto) {
@@ -459,11 +465,6 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
       if (fit[i].key == fit[j].key) throw SceneError("--fit " + fit[j].key + ": given twice");
   }
 
-  auto theta_of_u = [&](const std::vector<double>& u) {
-    std::vector<double> th(d);
-    for (std::size_t j = 0; j < d; ++j) th[j] = fit[j].theta_lo() + u[j] * (fit[j].theta_hi() - fit[j].theta_lo());
-    return th;
-  };
   auto objective = [&](const Evaluator::Tracks& sim, const std::vector<double>& theta, double* data_part) {
     const std::vector<double> r = residuals(sim, data, opt);
     double chi2 = 0;
@@ -508,14 +509,17 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
     }
   }
 
-  if (c.interrupted) {  // (the best so far, no uncertainty)
+  // interrupted: the best so far, no uncertainty
+  auto stopped = [&] {
+    c.interrupted = true;
     c.best = to_values(best_u);
     c.misfit = best;
     c.sigma.assign(d, std::numeric_limits<double>::quiet_NaN());
     c.theta_sigma = c.sigma;
     c.determined.assign(d, false);
     return c;
-  }
+  };
+  if (c.interrupted) return stopped();
   // the Laplace estimate: the residuals' Jacobian in θ by central
   // differences at the best (the best and its 2d neighbours, one batch)
   const std::vector<double> th = theta_of_u(best_u);
@@ -532,15 +536,7 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
     }
   }
   const std::vector<Evaluator::Tracks> sims = ev.run(pts);
-  if (opt.interrupt && *opt.interrupt) {  // (during the uncertainty's batch: the best, no uncertainty)
-    c.interrupted = true;
-    c.best = pts[0];
-    c.misfit = best;
-    c.sigma.assign(d, std::numeric_limits<double>::quiet_NaN());
-    c.theta_sigma = c.sigma;
-    c.determined.assign(d, false);
-    return c;
-  }
+  if (opt.interrupt && *opt.interrupt) return stopped();  // (during the uncertainty's batch)
   c.best = pts[0];
   c.misfit = objective(sims[0], th, &c.data_misfit);
   c.fitted = sims[0];
