@@ -109,7 +109,7 @@ TEST(Calibrate, FitSpecsParseAndBadOnesAreNamed) {
   EXPECT_NE(message("rods.0.material.youngs_modulus=log:0:1e7").find("lo > 0"), std::string::npos);
   EXPECT_NE(message("rods.0.material.youngs_modulus=3:1").find("empty"), std::string::npos);
   EXPECT_NE(message("rods.0.material.youngs_modulus=normal:1e6:0").find("no mass"), std::string::npos);
-  EXPECT_NE(message("rods.0.material.youngs_modulus=a:b").find("'a' is not a number"), std::string::npos);
+  EXPECT_NE(message("rods.0.material.youngs_modulus=a:b").find("'a' is not a finite number"), std::string::npos);
 }
 
 namespace {

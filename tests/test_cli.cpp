@@ -1780,7 +1780,7 @@ TEST(Cli, CalibrateFitsAModulusToARunOfTheSceneAndNamesBadMeasurements) {
   refused("--data " + late + fit, "outside the scene's run");
   const std::string shape = write_scene("cal_shape.csv", "time,track,x,y,z\n0.1,0:-1,0,0\n");
   refused("--data " + shape + fit, "cal_shape.csv:2: 4 columns, the header has 5");
-  refused("--data " + data + " --fit rods.0.material.youngs_modulus=log:1e5:x", "'x' is not a number");
+  refused("--data " + data + " --fit rods.0.material.youngs_modulus=log:1e5:x", "'x' is not a finite number");
   refused("--data " + data + " --fit rods.0.material.youngs_modulus=normal:1e6:0", "no mass");
   refused("--data " + data + " --fit rods.0.name=1:2", "rods.0.name");
   refused("--data " + data + " --fit rods.0.material.youngs_modulus=lognormal:1e6:0.3",

@@ -910,7 +910,7 @@ def test_calibrate_recovers_a_modulus_from_a_measured_tip_track_csv(tmp_path):
     assert r["determined"][key] and math.isfinite(r["sigma"][key])
     assert r["sigma_given"] and r["lines"][0].startswith(key + " = ")
     assert (tmp_path / "fit.h5").exists() and (tmp_path / "fit.csv").exists()
-    with pytest.raises(ValueError, match="not a number"):
+    with pytest.raises(ValueError, match="not a finite number"):
         s.calibrate(str(tmp_path / "tip.csv"), [key + "=log:1:x"], str(tmp_path / "bad.h5"))
     with pytest.raises(ValueError, match="is the input"):
         s.calibrate(str(tmp_path / "truth.h5"), [key + "=log:1e5:1e7"], str(tmp_path / "truth.h5"))

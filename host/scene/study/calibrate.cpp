@@ -19,28 +19,11 @@
 #include "manyrods/sampling.h"
 #include "manyrods/sweep.h"
 #include "study/cmaes.h"
+#include "study/text.h"
 
 namespace manyrods::scene {
 
 namespace {
-
-// a number that is the whole of s (SceneError naming `what` otherwise)
-double number(const std::string& s, const std::string& what) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
-    throw SceneError(what + ": '" + s + "' is not a number");
-  return v;
-}
-
-std::vector<std::string> split(const std::string& s, char sep) {
-  std::vector<std::string> out;
-  std::string cur;
-  std::istringstream in(s);
-  while (std::getline(in, cur, sep)) out.push_back(cur);
-  if (!s.empty() && s.back() == sep) out.emplace_back();
-  return out;
-}
 
 std::string trim(const std::string& s) {
   const auto a = s.find_first_not_of(" \t\r");
@@ -88,25 +71,25 @@ FitParameter parse_fit(const std::string& arg) {
   if (f[0] == "log") {
     need(3, "log:lo:hi");
     p.kind = FitParameter::Kind::log_range;
-    p.lo = number(f[1], what), p.hi = number(f[2], what);
+    p.lo = finite_number(f[1], what), p.hi = finite_number(f[2], what);
     if (!(p.lo > 0)) throw SceneError(what + ": a log range needs lo > 0");
   } else if (f[0] == "normal") {
     need(3, "normal:mean:std");
     p.kind = FitParameter::Kind::normal;
-    p.mean = number(f[1], what), p.std = number(f[2], what);
+    p.mean = finite_number(f[1], what), p.std = finite_number(f[2], what);
     if (!(p.std > 0)) throw SceneError(what + ": a prior needs std > 0 (it has no mass otherwise)");
   } else if (f[0] == "lognormal") {
     need(3, "lognormal:median:sigma");
     p.kind = FitParameter::Kind::lognormal;
-    p.mean = number(f[1], what), p.std = number(f[2], what);
+    p.mean = finite_number(f[1], what), p.std = finite_number(f[2], what);
     if (!(p.mean > 0)) throw SceneError(what + ": a log-normal prior needs median > 0");
     if (!(p.std > 0)) throw SceneError(what + ": a prior needs sigma > 0 (it has no mass otherwise)");
   } else {
     if (f.size() == 3 && f[0] == "uniform") {
-      p.lo = number(f[1], what), p.hi = number(f[2], what);
+      p.lo = finite_number(f[1], what), p.hi = finite_number(f[2], what);
     } else {
       need(2, "lo:hi, log:lo:hi, normal:mean:std or lognormal:median:sigma");
-      p.lo = number(f[0], what), p.hi = number(f[1], what);
+      p.lo = finite_number(f[0], what), p.hi = finite_number(f[1], what);
     }
     p.kind = FitParameter::Kind::range;
   }
@@ -123,8 +106,8 @@ Track parse_track(const std::string& name, const Scene& s, const std::string& wh
   const std::vector<std::string> f = split(name, ':');
   if (f.size() != 2)
     throw SceneError(where + ": track '" + name + "' is not ROD:NODE (a rod index and a node index)");
-  const double rod = number(trim(f[0]), where + ": track '" + name + "' rod"),
-               node = number(trim(f[1]), where + ": track '" + name + "' node");
+  const double rod = finite_number(trim(f[0]), where + ": track '" + name + "' rod"),
+               node = finite_number(trim(f[1]), where + ": track '" + name + "' node");
   const int nrods = int(s.rods.size());
   if (rod != std::floor(rod) || rod < 0 || rod >= nrods)
     throw SceneError(where + ": track '" + name + "': the scene has no rod " + trim(f[0]) + " (rods 0.." +
@@ -210,7 +193,7 @@ Measurements read_csv(const std::string& path, const Scene& s) {
                        std::to_string(head.size()));
     Row row;
     row.line = ln;
-    row.t = number(trim(f[0]), where + ": time");
+    row.t = finite_number(trim(f[0]), where + ": time");
     const std::string name = trim(f[1]);
     std::size_t k = 0;
     while (k < m.tracks.size() && m.tracks[k].name != name) ++k;
@@ -219,10 +202,10 @@ Measurements read_csv(const std::string& path, const Scene& s) {
     for (int a = 0; a < 3; ++a) {
       const std::string v = trim(f[std::size_t(2 + a)]);
       row.x[std::size_t(a)] = v.empty() || v == "nan" || v == "NaN" ? std::numeric_limits<double>::quiet_NaN()
-                                                                      : number(v, where + ": " + head[std::size_t(2 + a)]);
+                                                                      : finite_number(v, where + ": " + head[std::size_t(2 + a)]);
     }
     if (with_sigma) {
-      const double sg = number(trim(f[5]), where + ": sigma");
+      const double sg = finite_number(trim(f[5]), where + ": sigma");
       if (!(sg > 0)) throw SceneError(where + ": sigma must be > 0");
       Track& t = m.tracks[k];
       if (!std::isnan(t.sigma) && t.sigma != sg)

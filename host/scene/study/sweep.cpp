@@ -1,6 +1,7 @@
 // host/scene/study/sweep.cpp — parameter sweeps (include/manyrods/sweep.h).
 #include "manyrods/sweep.h"
 #include "setup/static_cache.h"
+#include "study/text.h"
 
 #include "manyrods/isa.h"
 #include "manyrods/rng.h"
@@ -22,26 +23,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double parse_number(const std::string& s, const std::string& arg) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(s, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != s.size() || !std::isfinite(v))
-    throw SceneError("--vary " + arg + ": '" + s + "' is not a finite number");
-  return v;
-}
-
-std::vector<std::string> split(const std::string& s, char c) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string p; std::getline(ss, p, c);) out.push_back(p);
-  if (!s.empty() && s.back() == c) out.push_back("");
-  return out;
-}
+double parse_number(const std::string& s, const std::string& arg) { return finite_number(s, "--vary " + arg); }
 
 
 struct Extremum {
