@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <csignal>
 #include <random>
 #include <signal.h>
 #include <sys/wait.h>
@@ -29,6 +30,7 @@
 #include <hdf5.h>
 
 #include "host/scene/run/parts.h"
+#include "manyrods/calibrate.h"
 #include "manyrods/h5io.h"
 #include "manyrods/runner.h"
 
@@ -1756,11 +1758,55 @@ TEST(Cli, CalibrateFitsAModulusToARunOfTheSceneAndNamesBadMeasurements) {
   EXPECT_NEAR(E / 1e6, 1.0, 1e-4) << line;
   const std::string fitted = slurp(csv);
   expect_contains(fitted, "rods.0.material.youngs_modulus,");
-  const h5::Reader rd(out);
-  EXPECT_GT(rd.frames(), 1);
+  {
+    const h5::Reader rd(out);
+    EXPECT_GT(rd.frames(), 1);
+    // what was measured beside the fit: every node's track (7), x y z measured and fitted
+    const h5::Output& o = rd.output();
+    ASSERT_EQ(o.calibration_track_names.size(), 7u);
+    EXPECT_EQ(o.calibration_track_names.back(), "0:6");
+    ASSERT_EQ(o.calibration_tracks.size(), 1u + 6 * 7);
+    EXPECT_EQ(o.calibration_tracks[0].name, "time");
+    EXPECT_EQ(o.calibration_tracks[1].name, "measured_0_x");
+    EXPECT_EQ(o.calibration_tracks[2].name, "fitted_0_x");
+    ASSERT_EQ(o.calibration_rows.size(), 6u);
+    EXPECT_EQ(o.calibration[0].name, "rods.0.material.youngs_modulus");
+    EXPECT_FALSE(o.calibration_history.empty());
+  }
+  EXPECT_FALSE(fs::exists(out + ".calibrate-state"));  // (removed once the results are written)
+  // the plot: measured against fitted tracks, and the search
+  {
+    const Result p = cli("plot " + out + " --out-dir " + path("cal_plots"));
+    ASSERT_EQ(p.status, 0) << p.err;
+    for (const char* png : {"calibration.png", "calibration_history.png"})
+      EXPECT_GT(fs::file_size(path("cal_plots") + "/" + png), 10000u) << png;
+  }
   // the same seed on 2 threads: the same search, bit for bit (the CSV's 17 digits)
   ASSERT_EQ(cli("calibrate " + scene + " --data " + data + fit + " --tolerance 1e-6 --threads 2 -o " + out).status, 0);
   EXPECT_EQ(slurp(csv), fitted);
+  // a search stopped after its second generation (its state written as the
+  // command writes it, beside -o) is continued by the same command, and
+  // ends with the same result, bit for bit
+  {
+    const std::string out2 = path("cal_again.h5"), csv2 = path("cal_again.csv");
+    namespace sc = manyrods::scene;
+    sc::CalibrateOptions opt;
+    opt.tolerance = 1e-6;
+    opt.state = out2 + ".calibrate-state";
+    fs::remove(opt.state);
+    volatile std::sig_atomic_t stop = 0;
+    opt.interrupt = &stop;
+    opt.on_generation = [&](int g, double, double) { stop = g == 2; };
+    const sc::Calibration part = sc::calibrate(slurp(scene), scene, {sc::parse_fit("rods.0.material.youngs_modulus=log:1e5:1e7")},
+                                               sc::read_measurements(data, sc::load_scene(scene)), opt);
+    ASSERT_TRUE(part.interrupted);
+    ASSERT_TRUE(fs::exists(opt.state));
+    const Result again = cli("calibrate " + scene + " --data " + data + fit + " --tolerance 1e-6 --threads 2 -o " + out2);
+    ASSERT_EQ(again.status, 0) << again.err;
+    expect_contains(again.err, "continued the search from generation 2 (" + opt.state + ")");
+    EXPECT_EQ(slurp(csv2), fitted);
+    EXPECT_FALSE(fs::exists(opt.state));
+  }
 
   // bad input, each named, nothing written (exit 2)
   auto refused = [&](const std::string& args, const std::string& says) {
@@ -1786,6 +1832,9 @@ TEST(Cli, CalibrateFitsAModulusToARunOfTheSceneAndNamesBadMeasurements) {
   refused("--data " + data + " --fit rods.0.material.youngs_modulus=lognormal:1e6:0.3",
           "a prior needs the measurements' noise");
   refused("--data " + data + fit + fit, "given twice");
+  refused("--data " + data + " --data " + data + fit, "a second file of tracks");
+  const std::string scalars = write_scene("cal_scalars.csv", "observable,value,sigma\ntip_x,0.1,1e-3\n");
+  refused("--data " + scalars + fit, "cal_scalars.csv:2: the scene has no observable 'tip_x' (its [[observables]]: none)");
   const std::string twice = write_scene("cal_twice.csv", "time,track,x,y,z\n0.1,0:-1,0,0,0.3\n0.1,0:-1,0,0,0.3\n");
   refused("--data " + twice + fit, "cal_twice.csv:3: track '0:-1' at time 0.1");
   {

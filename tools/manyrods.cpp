@@ -5,7 +5,7 @@
 //   manyrods run scene.toml -o out.h5 --from-static        (start from the static equilibrium)
 //   manyrods static scene.toml -o equilibrium.h5 [--at T]   (static equilibrium and the reactions at the holds)
 //   manyrods sweep scene.toml --vary KEY=SPEC [--vary ...] [--design mc|lhs|sobol --samples N --seed S] [--until T] -o sweep.h5 [--csv F]
-//   manyrods calibrate scene.toml --data MEAS --fit KEY=SPEC [--fit ...] -o fit.h5 [--csv F] [--seed S]
+//   manyrods calibrate scene.toml --data MEAS [--data ...] --fit KEY=SPEC [--fit ...] -o fit.h5 [--csv F] [--seed S]
 //                  [--population N] [--generations G] [--sigma S]   (fit parameters to measured node tracks)
 //   manyrods export out.h5 --usd out.usda [--every K]
 //   manyrods plot out.h5 [--out-dir DIR]
@@ -167,7 +167,7 @@ struct Options {
   std::string json, precision;
   // calibrate
   std::vector<std::string> fit;
-  std::string data;
+  std::vector<std::string> data;
   int population = 0, generations = 200;
   double sigma = std::numeric_limits<double>::quiet_NaN(), fit_tolerance = 1e-7;
 };
@@ -288,8 +288,12 @@ Commands add_commands(CLI::App& app, Options& o) {
       ->check(positive);
   c.cal = app.add_subcommand("calibrate", "fit a scene's parameters to measured node tracks (CMA-ES, each generation one batch)");
   c.cal->add_option("scene", o.scene_path, "scene file (TOML)")->required();
-  c.cal->add_option("--data", o.data, "the measurements: a CSV (time,track,x,y,z[,sigma]) or a manyrods run output (HDF5)")
-      ->required();
+  c.cal->add_option("--data", o.data,
+                    "the measurements: node tracks, a CSV (time,track,x,y,z[,sigma]) or a manyrods run output "
+                    "(HDF5), and/or scalars of the scene's [[observables]], a CSV (observable,value,sigma)")
+      ->required()
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   c.cal->add_option("--fit", o.fit,
                     "KEY=lo:hi | KEY=log:lo:hi | KEY=normal:mean:std | KEY=lognormal:median:sigma "
                     "(e.g. rods.0.material.youngs_modulus=log:1e5:1e7)")
@@ -401,9 +405,9 @@ int command_run(const Options& o) {
 
 int report(const std::exception& e);
 
-// ---- MPI: a sweep's chunks shared among ranks -----------------------------------
+// ---- MPI: a sweep's chunks, a calibration's generations shared among ranks ------------
 
-// The MPI session of a `manyrods sweep` started by an MPI launcher (mpirun,
+// The MPI session of a `manyrods sweep` or `calibrate` started by an MPI launcher (mpirun,
 // srun): initialized only then, so that every other use of the tool runs
 // without MPI (a plain start is one process).
 bool launched_by_mpi() {
@@ -436,6 +440,14 @@ struct MpiSession {
       int in = b ? 1 : 0, all = 0;
       MPI_Allreduce(&in, &all, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
       return all != 0;
+    };
+    shards.all_gather = [](const std::vector<double>& mine, const std::vector<int>& counts) {
+      std::vector<int> at(counts.size(), 0);
+      for (std::size_t r = 1; r < counts.size(); ++r) at[r] = at[r - 1] + counts[r - 1];
+      std::vector<double> all(std::size_t(at.back() + counts.back()));
+      MPI_Allgatherv(mine.data(), int(mine.size()), MPI_DOUBLE, all.data(), counts.data(), at.data(), MPI_DOUBLE,
+                     MPI_COMM_WORLD);
+      return all;
     };
 #endif
   }
@@ -558,17 +570,24 @@ int command_static(const Options& o) {
 // `manyrods calibrate`: the fit (include/manyrods/calibrate.h), a line per
 // parameter, the CSV, and the best fit's run with /calibration and
 // /calibration_history into the output (checked, with the CSV, before any
-// work: neither may be an input).
+// work: neither may be an input). The search's state is kept in
+// OUT.calibrate-state after every generation: stopped (Ctrl-C, a job's time
+// limit), the same command continues it; it is removed once the results are
+// written. Under mpirun or srun the ranks share each generation (rank 0
+// writes).
 int command_calibrate(const Options& o) {
   const std::string text = read_file(o.scene_path);
   const Scene s = parse_scene(text, o.scene_path);
   std::vector<std::string> inputs = s.inputs;
-  inputs.push_back(o.data);
+  inputs.insert(inputs.end(), o.data.begin(), o.data.end());
   check_h5_output(o.output, inputs, "-o");
   const std::string csv = o.csv.empty() ? fs::path(o.output).replace_extension(".csv").string() : o.csv;
   check_extension(csv, {".csv"}, "--csv", "the fitted parameters (CSV)");
   inputs.push_back(o.output);
   check_not_input(csv, inputs, "--csv");
+  const std::string state = o.output + ".calibrate-state";
+  inputs.push_back(csv);
+  check_not_input(state, inputs, "the search's state (beside -o)");
   // (both written at the end, after the whole calibration: their folders
   // checked now)
   for (const std::string& f : {o.output, csv}) {
@@ -580,6 +599,8 @@ int command_calibrate(const Options& o) {
   std::vector<FitParameter> fit;
   for (const std::string& f : o.fit) fit.push_back(parse_fit(f));
   const Measurements data = read_measurements(o.data, s);
+  static MpiSession mpi;  // (finalized at exit; one process unless launched by mpirun or srun)
+  const bool lead = mpi.shards.rank == 0;
   CalibrateOptions opt;
   opt.population = o.population;
   opt.max_generations = o.generations;
@@ -588,23 +609,49 @@ int command_calibrate(const Options& o) {
   opt.sigma = o.sigma;
   opt.threads = o.threads;
   opt.interrupt = &g_interrupt;
+  opt.state = state;
+  opt.shards = mpi.shards;
   std::signal(SIGINT, on_sigint);
-  opt.on_generation = [progress = o.progress](int g, double best, double step) {
+  opt.on_generation = [progress = o.progress && lead](int g, double best, double step) {
     if (progress) std::fprintf(stderr, "\rmanyrods calibrate: generation %d, best misfit %.6g, step %.3g   ", g, best, step);
   };
-  std::fprintf(stderr, "manyrods calibrate: %zu parameters, %zu tracks at %zu times\n", fit.size(), data.tracks.size(),
-               data.time.size());
-  const Calibration c = calibrate(text, o.scene_path, fit, data, opt);
-  if (o.progress) std::fputc('\n', stderr);
-  if (c.interrupted) {  // nothing written: the best so far on stderr
-    std::fprintf(stderr, "manyrods calibrate: interrupted after %d generations (nothing written); the best so far:\n",
-                 c.generations);
-    for (std::size_t j = 0; j < fit.size(); ++j) std::fprintf(stderr, "  %s = %.6g\n", fit[j].key.c_str(), c.best[j]);
+  if (lead)
+    std::fprintf(stderr, "manyrods calibrate: %zu parameters, %zu tracks at %zu times, %zu scalars%s\n", fit.size(),
+                 data.tracks.size(), data.time.size(), data.scalars.size(),
+                 mpi.shards.ranks > 1 ? (" (" + std::to_string(mpi.shards.ranks) + " MPI ranks)").c_str() : "");
+  Calibration c;
+  try {
+    c = calibrate(text, o.scene_path, fit, data, opt);
+  } catch (const std::exception& e) {
+#ifdef MANYRODS_MPI
+    if (mpi.shards.ranks > 1) {  // the other ranks would wait in a collective: end them all
+      report(e);
+      MPI_Abort(MPI_COMM_WORLD, 2);
+    }
+#endif
+    throw;
+  }
+  if (o.progress && lead) std::fputc('\n', stderr);
+  if (c.resumed > 0 && lead)
+    std::fprintf(stderr, "manyrods calibrate: continued the search from generation %d (%s)\n", c.resumed, state.c_str());
+  if (c.interrupted) {  // nothing written but the state: the best so far on stderr
+    if (lead) {
+      std::fprintf(stderr,
+                   "manyrods calibrate: interrupted after %d generations; the search is kept in %s: run the same "
+                   "command to continue it. The best so far:\n",
+                   c.generations, state.c_str());
+      for (std::size_t j = 0; j < fit.size(); ++j) std::fprintf(stderr, "  %s = %.6g\n", fit[j].key.c_str(), c.best[j]);
+    }
     return 130;
   }
+  if (!lead) return 0;
   // the best fit's run, with the tables (Ctrl-C ends it early: exit 130)
   const RunResult best = run_best_fit(text, o.scene_path, c, o.output, o.threads, &g_interrupt);
   write_calibration_csv(csv, c);
+  if (!best.interrupted) {
+    std::error_code ec;
+    fs::remove(state, ec);
+  }
   std::fprintf(stderr,
                "manyrods calibrate: %d generations, %d runs (%s), misfit %.6g over %lld samples%s -> %s, %s\n",
                c.generations, c.evaluations,
@@ -612,7 +659,9 @@ int command_calibrate(const Options& o) {
                static_cast<long long>(c.samples), c.sigma_given ? "" : " (sigma estimated from the residuals)",
                o.output.c_str(), csv.c_str());
   for (const std::string& line : calibration_lines(c)) std::printf("%s\n", line.c_str());
-  if (best.interrupted) std::fprintf(stderr, "manyrods calibrate: the best fit's run was interrupted at t = %g s\n", best.time);
+  if (best.interrupted)
+    std::fprintf(stderr, "manyrods calibrate: the best fit's run was interrupted at t = %g s (the search is kept in %s)\n",
+                 best.time, state.c_str());
   return best.interrupted ? 130 : 0;
 }
 

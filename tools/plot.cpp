@@ -9,6 +9,8 @@
 //   shapes.gif            up to 60 frames of the first view, on fixed axes
 //   sweep_*.png           a sweep's summary columns, and sweep_shapes.png: the
 //                         variations at either end of one column at the last frame
+//   calibration*.png      a calibration's measured against fitted tracks and
+//                         scalars, and its search per generation
 #include "plot.h"
 
 #include <unistd.h>
@@ -170,6 +172,86 @@ void tips_and_energy_script(std::ostream& gp, const h5::Output& o, const std::st
         "'potential', '' using 1:5 with lines lw 2 title 'mechanical', '' using 1:6 with lines title "
         "'dissipated (KV)', "
         "'' using 1:7 with lines dt 2 lw 2 title 'mechanical + dissipated'\n";
+}
+
+// A calibration's plots (appended to `made`; include/manyrods/calibrate.h
+// run_best_fit's tables): calibration.png, up to four measured tracks
+// (points) against the fitted ones (lines), x, y and z over time, titled
+// with the fitted values; calibration_scalars.png, the measured scalars
+// with their ±σ against the fitted ones; calibration_history.png, the best
+// misfit and the search's step per generation. Data in calibration*.dat.
+void calibration_script(std::ostream& gp, const h5::Output& o, const std::string& dir, std::vector<std::string>& made) {
+  std::string fitted;  // "E = 1.2e6 ± 3e4, …" from /calibration
+  for (const h5::Column& c : o.calibration) {
+    if (c.values.size() < 4) continue;
+    fitted += (fitted.empty() ? "" : ", ") + short_key(c.name) + " = " + number(c.values[0]);
+    fitted += c.values[3] != 0 ? " +- " + number(c.values[1], 2) : " (not determined)";
+  }
+  gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\nset key outside right\nunset title\n";
+  const std::size_t tracks = o.calibration_track_names.size();
+  if (!o.calibration_tracks.empty() && o.calibration_tracks.size() == 1 + 6 * tracks && tracks > 0) {
+    const std::string dat = dir + "/calibration.dat";
+    std::ofstream d(dat);
+    d.precision(12);
+    std::vector<std::int64_t> shown = spread(std::int64_t(tracks), 4);
+    const std::size_t T = o.calibration_tracks[0].values.size();
+    for (std::size_t i = 0; i < T; ++i) {
+      d << o.calibration_tracks[0].values[i];
+      for (std::int64_t k : shown)  // (columns measured_k_x, fitted_k_x, … in the file: 1 + 6k + 2a + which)
+        for (int which = 0; which < 2; ++which)
+          for (int a = 0; a < 3; ++a) {
+            const double v = o.calibration_tracks[std::size_t(1 + 6 * k + 2 * a + which)].values[i];
+            d << ' ';
+            if (std::isfinite(v)) d << v; else d << "NaN";
+          }
+      d << '\n';
+    }
+    gp << "set output " << quote(dir + "/calibration.png") << "\nset multiplot layout 3,1 title "
+       << quote("calibration: measured (points) and fitted (lines) tracks; " + fitted) << "\n";
+    for (int a = 0; a < 3; ++a) {
+      gp << "set xlabel 'time (s)'\nset ylabel '" << "xyz"[a] << " (m)'\nplot ";
+      for (std::size_t i = 0; i < shown.size(); ++i) {
+        const std::string name = "track " + o.calibration_track_names[std::size_t(shown[i])];
+        const std::size_t col = 2 + 6 * i;
+        gp << (i ? ", " : "") << quote(dat) << " using 1:" << col + std::size_t(a) << " with points pt 7 ps 0.6 lc "
+           << i + 1 << " title " << quote(name + " measured") << ", '' using 1:" << col + 3 + std::size_t(a)
+           << " with lines lw 2 lc " << i + 1 << " title " << quote(name + " fitted");
+      }
+      gp << "\n";
+    }
+    gp << "unset multiplot\n";
+    made.push_back(dir + "/calibration.png");
+  }
+  const std::size_t scalars = o.calibration_scalar_names.size();
+  if (o.calibration_scalars.size() == 3 && scalars > 0) {
+    const std::string dat = dir + "/calibration_scalars.dat";
+    std::ofstream d(dat);
+    d.precision(12);
+    for (std::size_t q = 0; q < scalars; ++q)
+      d << q << ' ' << o.calibration_scalars[0].values[q] << ' ' << o.calibration_scalars[1].values[q] << ' '
+        << o.calibration_scalars[2].values[q] << ' ' << o.calibration_scalar_names[q] << '\n';  // (names: letters, digits, _ . - @)
+    gp << "set output " << quote(dir + "/calibration_scalars.png") << "\nset title "
+       << quote("calibration: measured scalars (+- sigma) and the fit's; " + fitted)
+       << "\nset xlabel 'observable'\nset ylabel 'value (its unit)'\nset xrange [-0.5:" << double(scalars) - 0.5
+       << "]\nplot " << quote(dat) << " using 1:2:3:xtic(5) with yerrorbars pt 7 title 'measured', '' using 1:4 with "
+       << "points pt 6 ps 2 lw 2 title 'fitted'\nset xrange [*:*]\nset xtics autofreq\n";
+    made.push_back(dir + "/calibration_scalars.png");
+  }
+  if (o.calibration_history.size() == 3 && !o.calibration_history[0].values.empty()) {
+    const std::string dat = dir + "/calibration_history.dat";
+    std::ofstream d(dat);
+    d.precision(12);
+    for (std::size_t g = 0; g < o.calibration_history[0].values.size(); ++g)
+      d << o.calibration_history[0].values[g] << ' ' << o.calibration_history[1].values[g] << ' '
+        << o.calibration_history[2].values[g] << '\n';
+    gp << "set output " << quote(dir + "/calibration_history.png")
+       << "\nset title 'calibration: the search (CMA-ES), one batch per generation'\nset xlabel 'generation'\n"
+          "set ylabel 'best misfit (chi^2)'\nset y2label 'step (fraction of the ranges)'\nset logscale y\n"
+          "set logscale y2\nset ytics nomirror\nset y2tics\nplot "
+       << quote(dat) << " using 1:2 with lines lw 2 title 'best misfit', '' using 1:3 axes x1y2 with lines title 'step'\n"
+       << "unset logscale y\nunset logscale y2\nunset y2tics\nset ytics mirror\nunset y2label\n";
+    made.push_back(dir + "/calibration_history.png");
+  }
 }
 
 // A sweep's plots (appended to `made`): each summary column against the
@@ -974,6 +1056,7 @@ int plot(const std::string& in, std::string dir) {
     gp << "set terminal pngcairo size 1200,900 noenhanced\nset grid\n";
   }
   if (o.has_sweep && !o.sweep_parameters.empty()) sweep_script(gp, o, dir, made);
+  if (!o.calibration_history.empty()) calibration_script(gp, o, dir, made);
   made.insert(made.end(), made_shapes.begin(), made_shapes.end());
   return run_gnuplot(dir, gp.str() + shapes.str(), made);
 }

@@ -45,6 +45,7 @@
 
 #include "manyrods/h5io.h"
 #include "manyrods/runner.h"
+#include "manyrods/sweep.h"
 
 namespace manyrods::scene {
 
@@ -76,10 +77,18 @@ struct Track {
   std::vector<std::array<double, 3>> x;
   double sigma = std::numeric_limits<double>::quiet_NaN();
 };
+// A scalar of the scene's [[observables]] (a column of observable_columns:
+// "name", or "name@t"), measured as value ± sigma.
+struct ScalarMeasurement {
+  std::string name;
+  int column = 0;  // its column among the scene's observables
+  double value = 0, sigma = 0;
+};
 struct Measurements {
-  std::string path;
+  std::string path;  // (the files, ", "-joined)
   std::vector<double> time;
   std::vector<Track> tracks;
+  std::vector<ScalarMeasurement> scalars;
 };
 
 // Reads measurements: an HDF5 file written by `manyrods run` (every node of
@@ -87,21 +96,39 @@ struct Measurements {
 //   time,track,x,y,z[,sigma]
 // one row per sample, track "ROD:NODE" (the scene's rod index, a node index,
 // negative from the end), x y z in m (empty or nan: not measured), sigma
-// in m. Checked against the scene: every track's rod and node exist, some
-// sample is finite, the times lie within [0, duration]. SceneError (or
+// in m; or a CSV file of scalars with the header
+//   observable,value,sigma
+// one row per column of the scene's [[observables]] (its name, "name@t"
+// for one time of an `at` observable), in that observable's unit; sigma is
+// required (it weighs the scalar against the other measurements). Several
+// files: at most one of tracks and one of scalars. Checked against the
+// scene: every track's rod and node exist, some sample is finite, the times
+// lie within [0, duration], every scalar names an observable column. SceneError (or
 // h5::H5Error) naming the file, line and column, or track.
 Measurements read_measurements(const std::string& path, const Scene& scene);
+Measurements read_measurements(const std::vector<std::string>& paths, const Scene& scene);
 
 struct CalibrateOptions {
   int population = 0;          // λ; 0: 4 + ⌊3 ln d⌋, at least 8
   int max_generations = 200;   // the budget
   double tolerance = 1e-7;     // stop when every coordinate's step (in [0, 1] units) is below it
-  std::uint64_t seed = 1;
+  std::uint64_t seed = 0;
   double sigma = std::numeric_limits<double>::quiet_NaN();  // the tracks' noise (m) where they give none
   int threads = 1;
   // after each generation: its number, the best χ² so far, the step size
   std::function<void(int, double, double)> on_generation;
   const volatile std::sig_atomic_t* interrupt = nullptr;
+  // The search's state file (empty: none): written after every generation
+  // (process 0), and where it exists at the start, read and continued —
+  // bit for bit the calibration that was not stopped. A state from other
+  // inputs (scene, measurements, --fit, seed, population, sigma) is refused
+  // (SceneError). The caller removes it once the results are written.
+  std::string state;
+  // MPI ranks (include/manyrods/sweep.h Shards): each generation's
+  // candidates split among them, each rank one batch of its share, their
+  // tracks gathered (all_gather); every rank runs the same search. The
+  // result is the same for any number of ranks.
+  Shards shards;
 };
 
 struct Calibration {
@@ -118,12 +145,16 @@ struct Calibration {
   int generations = 0, evaluations = 0;
   bool converged = false;         // by the tolerance (else by the budget or an interrupt)
   bool interrupted = false;
+  int resumed = 0;                // the generations read back from the state file
   double dt = 0;                  // the step every candidate ran with
   double duration = 0;            // and how far (the last measured time)
   std::vector<double> history_best;   // per generation: the best χ² so far
   std::vector<double> history_step;   // per generation: the step size σ (in [0, 1] units)
-  // the fitted tracks: [track][time][3] at the best parameters
+  // the fitted tracks: [track][time][3] at the best parameters, and the
+  // fitted scalars (as Measurements::scalars)
   std::vector<std::vector<std::array<double, 3>>> fitted;
+  std::vector<double> fitted_scalars;
+  Measurements data;  // what was fitted
 };
 
 // Fits the parameters of the scene text (source: its path, for messages)
@@ -133,8 +164,12 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
 
 // Runs the scene at the best fit (its step and duration the calibration's) into
 // `output` with /calibration (a dataset per key: value, sigma, sigma_theta,
-// determined, lo, hi; the rows' names in its attribute "rows") and
-// /calibration_history (generation, best_misfit, step), as run_scene writes.
+// determined, lo, hi; the rows' names in its attribute "rows"),
+// /calibration_history (generation, best_misfit, step), and what was
+// measured beside what the fit gives: /calibration_tracks (time, then per
+// track k and component c = x|y|z the columns measured_k_c and fitted_k_c;
+// the tracks' names in its attribute "tracks") and /calibration_scalars
+// (measured, sigma, fitted; the names in "rows"), as run_scene writes.
 // (interrupt: as RunOptions::interrupt; the run then ends early, the tables
 // written.)
 RunResult run_best_fit(const std::string& text, const std::string& source, const Calibration& c,

@@ -247,6 +247,13 @@ struct Output {
   std::vector<std::string> sweep_statistic_names;
   std::vector<std::int32_t> sweep_first_rod;  // [variations] /sweep/variation_first_rod
   std::vector<Column> observables;            // /observables (a run's; empty: none)
+  // `manyrods calibrate` (include/manyrods/calibrate.h run_best_fit; empty:
+  // none): /calibration (a column per fitted key, rows named in
+  // calibration_rows), /calibration_history, /calibration_tracks (its
+  // tracks' names in calibration_track_names), /calibration_scalars (rows
+  // named in calibration_scalar_names)
+  std::vector<Column> calibration, calibration_history, calibration_tracks, calibration_scalars;
+  std::vector<std::string> calibration_rows, calibration_track_names, calibration_scalar_names;
 };
 
 class Reader {

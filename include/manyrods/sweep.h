@@ -184,13 +184,18 @@ SweepRun run_sweep(const Sweep& sw, RunOptions opt, const h5::Checkpoint* restar
 // chunks k with k mod ranks = rank; min_all(x) returns the minimum of x
 // over all processes and all_ok(b) the AND of b over all (collectives that
 // every process calls at the same point; tools/manyrods.cpp gives them to
-// MPI); sum_all(x) the sum (for the count of chunks read back). Process 0 then reads the other processes' chunk files back and
+// MPI); sum_all(x) the sum (for the count of chunks read back); all_gather
+// below. Process 0 then reads the other processes' chunk files back and
 // writes the index. The default: one process.
 struct Shards {
   int rank = 0, ranks = 1;
   std::function<double(double)> min_all = [](double x) { return x; };
   std::function<bool(bool)> all_ok = [](bool b) { return b; };
   std::function<double(double)> sum_all = [](double x) { return x; };
+  // every process's `mine` joined in rank order (counts[r]: process r's
+  // length), on every process (`manyrods calibrate`: a generation's tracks)
+  std::function<std::vector<double>(const std::vector<double>& mine, const std::vector<int>& counts)> all_gather =
+      [](const std::vector<double>& mine, const std::vector<int>&) { return mine; };
 };
 
 struct ChunkedSweep {

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <csignal>
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 #include "bindings.h"
@@ -142,32 +144,41 @@ void bind_scene_sweep(nb::class_<Scene>& c) {
 void bind_scene_calibrate(nb::class_<Scene>& c) {
   c.def(
        "calibrate",
-       [](const Scene& s, const std::string& data, const std::vector<std::string>& fit, const std::string& output,
+       [](const Scene& s, const std::variant<std::string, std::vector<std::string>>& data_arg,
+          const std::vector<std::string>& fit, const std::string& output,
           std::optional<std::string> csv, std::uint64_t seed, int population, int generations, double tolerance,
           std::optional<double> sigma, int threads) {
          namespace sc = manyrods::scene;
          if (threads < 1) throw manyrods::InputError("threads: must be >= 1");
          std::vector<sc::FitParameter> fp;
          for (const std::string& f : fit) fp.push_back(sc::parse_fit(f));
+         const std::vector<std::string> data = std::holds_alternative<std::string>(data_arg)
+                                                   ? std::vector<std::string>{std::get<std::string>(data_arg)}
+                                                   : std::get<std::vector<std::string>>(data_arg);
          std::vector<std::string> inputs = s.inputs;
-         inputs.push_back(data);
+         inputs.insert(inputs.end(), data.begin(), data.end());
          sc::check_h5_output(output, inputs, "output");
+         inputs.push_back(output);
          if (csv) {
            sc::check_extension(*csv, {".csv"}, "csv", "the fitted parameters (CSV)");
-           inputs.push_back(output);
            sc::check_not_input(*csv, inputs, "csv");
+           inputs.push_back(*csv);
          }
+         const std::string state = output + ".calibrate-state";
+         sc::check_not_input(state, inputs, "the search's state (beside output)");
          sc::Calibration r;
          {
            nb::gil_scoped_release release;
            const sc::Measurements m = sc::read_measurements(data, s);
            sc::CalibrateOptions opt;
            opt.seed = seed, opt.population = population, opt.max_generations = generations;
-           opt.tolerance = tolerance, opt.threads = threads, opt.interrupt = &g_never;
+           opt.tolerance = tolerance, opt.threads = threads, opt.interrupt = &g_never, opt.state = state;
            if (sigma) opt.sigma = *sigma;
            r = sc::calibrate(s.text, s.source, fp, m, opt);
            sc::run_best_fit(s.text, s.source, r, output, threads);
            if (csv) sc::write_calibration_csv(*csv, r);
+           std::error_code ec;
+           std::filesystem::remove(state, ec);
          }
          nb::dict d;
          nb::dict value, sd, determined;
@@ -185,15 +196,19 @@ void bind_scene_calibrate(nb::class_<Scene>& c) {
          d["generations"] = r.generations;
          d["evaluations"] = r.evaluations;
          d["converged"] = r.converged;
+         d["resumed"] = r.resumed;
          d["lines"] = sc::calibration_lines(r);
          return d;
        },
-       "data"_a, "fit"_a, "output"_a, nb::kw_only(), "csv"_a = nb::none(), "seed"_a = 1, "population"_a = 0,
+       "data"_a, "fit"_a, "output"_a, nb::kw_only(), "csv"_a = nb::none(), "seed"_a = 0, "population"_a = 0,
        "generations"_a = 200, "tolerance"_a = 1e-7, "sigma"_a = nb::none(), "threads"_a = 1,
-       "Fit parameters to measured node tracks (`manyrods calibrate`): data = a CSV (time,track,x,y,z[,sigma]) or a "
-       "manyrods run output, fit = ['rods.0.material.youngs_modulus=log:1e5:1e7', …]; CMA-ES, each generation one "
-       "batch; writes the best fit's run to output (and csv); returns value, sigma (Laplace estimate; NaN where "
-       "not determined), determined, misfit, generations, lines ('KEY = VALUE ± SIGMA')");
+       "Fit parameters to measurements (`manyrods calibrate`): data = a file or a list of files, node tracks (a "
+       "CSV time,track,x,y,z[,sigma], or a manyrods run output) and/or scalars of the scene's [[observables]] (a "
+       "CSV observable,value,sigma); fit = ['rods.0.material.youngs_modulus=log:1e5:1e7', …]; CMA-ES, each "
+       "generation one batch, its state kept in output + '.calibrate-state' until the results are written (a "
+       "calibration stopped, called again with the same arguments, continues); writes the best fit's run to "
+       "output (and csv); returns value, sigma (Laplace estimate; NaN where not determined), determined, misfit, "
+       "generations, resumed, lines ('KEY = VALUE ± SIGMA')");
 }
 
 }  // namespace

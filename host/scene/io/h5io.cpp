@@ -899,6 +899,25 @@ Reader::Reader(const std::string& path) : impl_(new Impl) {
   const std::vector<hsize_t> want{hsize_t(r.frames), hsize_t(o.nodes), 3};
   if (dims != want) fail(path, "/node_position has shape " + dims_str(dims) + ", expected " + dims_str(want));
   if (H5Lexists(f, "observables", H5P_DEFAULT) > 0) o.observables = read_column_group(f, "observables", path);
+  // a calibration's tables, each with its rows' (or tracks') names
+  struct Table {
+    const char* name;
+    std::vector<Column>* cols;
+    const char* attr;
+    std::vector<std::string>* names;
+  };
+  for (const auto& [name, cols, attr, names] :
+       {Table{"calibration", &o.calibration, "rows", &o.calibration_rows},
+        Table{"calibration_history", &o.calibration_history, "", nullptr},
+        Table{"calibration_tracks", &o.calibration_tracks, "tracks", &o.calibration_track_names},
+        Table{"calibration_scalars", &o.calibration_scalars, "rows", &o.calibration_scalar_names}}) {
+    if (H5Lexists(f, name, H5P_DEFAULT) <= 0) continue;
+    *cols = read_column_group(f, name, path);
+    if (!names) continue;
+    const Id g = checked(H5Gopen2(f, name, H5P_DEFAULT), H5Gclose, path, std::string("missing group /") + name);
+    std::stringstream ss(read_attr_string(g.get(), attr, path, std::string("/") + name + "."));
+    for (std::string n; std::getline(ss, n);) names->push_back(n);
+  }
   if (H5Lexists(f, "sweep", H5P_DEFAULT) > 0) {
     o.has_sweep = true;
     auto cols = [&](const char* name, std::vector<Column>& out) { out = read_column_group(f, std::string("sweep/") + name, path); };

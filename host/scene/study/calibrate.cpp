@@ -157,13 +157,10 @@ Measurements read_run_output(const std::string& path, const Scene& s) {
   return m;
 }
 
-Measurements read_csv(const std::string& path, const Scene& s) {
-  std::ifstream in(path);
-  if (!in) throw SceneError(path + ": cannot open the measurements");
-  Measurements m;
-  m.path = path;
+// A CSV file's header (its first line that is not empty or a # comment):
+// the fields, trimmed; ln its line number
+std::vector<std::string> csv_header(std::ifstream& in, int& ln) {
   std::string line;
-  int ln = 0;
   std::vector<std::string> head;
   while (std::getline(in, line)) {
     ++ln;
@@ -172,6 +169,61 @@ Measurements read_csv(const std::string& path, const Scene& s) {
     for (std::string& h : head) h = trim(h);
     break;
   }
+  return head;
+}
+
+// observable,value,sigma (read_measurements)
+Measurements read_scalars(const std::string& path, const Scene& s) {
+  std::ifstream in(path);
+  if (!in) throw SceneError(path + ": cannot open the measurements");
+  int ln = 0;
+  const std::vector<std::string> head = csv_header(in, ln);
+  if (head.size() != 3 || head[1] != "value" || head[2] != "sigma")
+    throw SceneError(path + ":" + std::to_string(ln) +
+                     ": a scalars file's header must be observable,value,sigma (sigma: each scalar's noise, in its unit)");
+  const std::vector<std::string> columns = observable_columns(s.observables);
+  Measurements m;
+  m.path = path;
+  std::vector<int> first(columns.size(), 0);
+  std::string line;
+  while (std::getline(in, line)) {
+    ++ln;
+    if (trim(line).empty() || trim(line)[0] == '#') continue;
+    const std::string where = path + ":" + std::to_string(ln);
+    const std::vector<std::string> f = split(line, ',');
+    if (f.size() != 3) throw SceneError(where + ": " + std::to_string(f.size()) + " columns, the header has 3");
+    ScalarMeasurement sm;
+    sm.name = trim(f[0]);
+    const auto it = std::find(columns.begin(), columns.end(), sm.name);
+    if (it == columns.end()) {
+      std::string known;
+      for (const std::string& c : columns) known += (known.empty() ? "" : ", ") + c;
+      throw SceneError(where + ": the scene has no observable '" + sm.name + "' (its [[observables]]: " +
+                       (known.empty() ? std::string("none") : known) + ")");
+    }
+    sm.column = int(it - columns.begin());
+    if (first[std::size_t(sm.column)])
+      throw SceneError(where + ": observable '" + sm.name + "' given again (first on line " +
+                       std::to_string(first[std::size_t(sm.column)]) + ")");
+    first[std::size_t(sm.column)] = ln;
+    sm.value = finite_number(trim(f[1]), where + ": value");
+    sm.sigma = finite_number(trim(f[2]), where + ": sigma");
+    if (!(sm.sigma > 0)) throw SceneError(where + ": sigma must be > 0");
+    m.scalars.push_back(sm);
+  }
+  if (m.scalars.empty()) throw SceneError(path + ": no measurements (only a header)");
+  return m;
+}
+
+Measurements read_csv(const std::string& path, const Scene& s) {
+  std::ifstream in(path);
+  if (!in) throw SceneError(path + ": cannot open the measurements");
+  Measurements m;
+  m.path = path;
+  std::string line;
+  int ln = 0;
+  const std::vector<std::string> head = csv_header(in, ln);
+  if (!head.empty() && head[0] == "observable") return read_scalars(path, s);
   const bool with_sigma = head.size() == 6 && head[5] == "sigma";
   if (!(head.size() == 5 || with_sigma) || head[0] != "time" || head[1] != "track" || head[2] != "x" ||
       head[3] != "y" || head[4] != "z")
@@ -239,6 +291,7 @@ Measurements read_measurements(const std::string& path, const Scene& s) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
   Measurements m = ext == ".csv" ? read_csv(path, s) : read_run_output(path, s);
+  if (!m.scalars.empty()) return m;
   if (m.time.empty()) throw SceneError(path + ": no measured times");
   for (double t : m.time)
     if (t < 0 || t > s.sim.duration * (1 + 1e-12))
@@ -253,37 +306,109 @@ Measurements read_measurements(const std::string& path, const Scene& s) {
   return m;
 }
 
+Measurements read_measurements(const std::vector<std::string>& paths, const Scene& s) {
+  if (paths.empty()) throw SceneError("calibrate: no measurements (give --data FILE)");
+  Measurements all;
+  std::string tracks_from, scalars_from;
+  for (const std::string& p : paths) {
+    Measurements m = read_measurements(p, s);
+    all.path += (all.path.empty() ? "" : ", ") + p;
+    if (!m.scalars.empty()) {
+      if (!scalars_from.empty()) throw SceneError(p + ": a second file of scalars (the first: " + scalars_from + "); give one");
+      scalars_from = p;
+      all.scalars = std::move(m.scalars);
+    } else {
+      if (!tracks_from.empty()) throw SceneError(p + ": a second file of tracks (the first: " + tracks_from + "); give one");
+      tracks_from = p;
+      all.time = std::move(m.time);
+      all.tracks = std::move(m.tracks);
+    }
+  }
+  return all;
+}
+
 // ---- the calibration ------------------------------------------------------------------
 
 namespace {
 
 // One batch of candidates (values [candidate][parameter]): each one's
-// simulated positions at the measured times, [candidate][track][time][3]
-// (NaN for a candidate whose run failed).
+// simulated positions at the measured times, [track][time][3], and its
+// measured scalars (NaN for a candidate whose run failed). Among MPI ranks
+// (opt.shards) each runs a contiguous share of the candidates as its batch
+// and the shares are gathered: a candidate's run does not depend on the
+// others in its batch (one step for all, rods independent), so the result
+// is that of one batch.
 struct Evaluator {
   const std::string& text;
   const std::string& source;
-  const std::vector<FitParameter>& fit;
   const Measurements& data;
   const CalibrateOptions& opt;
   std::vector<std::string> names;
-  std::vector<Observable> obs;
+  std::vector<Observable> obs;  // the scene's own, then the tracks' (position, at the measured times)
+  int own_columns = 0;          // the scene's observables' columns (the first ones)
   double dt = 0;
   bool dt_auto = false;
   std::string work;  // the batch runs' file
   double duration = 0;
 
   using Tracks = std::vector<std::vector<std::array<double, 3>>>;
+  struct Sim {
+    Tracks tracks;
+    std::vector<double> scalars;
+  };
 
   // the first refusal's message (a candidate the scene's validation refuses)
   mutable std::string refused;
+  // an interrupt (on any rank) stopped the last batch
+  mutable bool stopped = false;
 
-  std::vector<Tracks> run(const std::vector<std::vector<double>>& all) const {
+  std::size_t values_per_sim() const { return 3 * data.tracks.size() * data.time.size() + data.scalars.size(); }
+
+  std::vector<Sim> run(const std::vector<std::vector<double>>& all) const {
+    const Shards& sh = opt.shards;
+    if (sh.ranks <= 1) {
+      std::vector<Sim> out = run_here(all);
+      stopped = opt.interrupt && *opt.interrupt;
+      return out;
+    }
+    const std::size_t n = all.size(), R = std::size_t(sh.ranks), per = values_per_sim();
+    auto lo = [&](std::size_t r) { return n * r / R; };
+    const std::size_t r = std::size_t(sh.rank);
+    const std::vector<Sim> mine =
+        run_here({all.begin() + std::ptrdiff_t(lo(r)), all.begin() + std::ptrdiff_t(lo(r + 1))});
+    stopped = !sh.all_ok(!(opt.interrupt && *opt.interrupt));
+    if (stopped) return {};
+    std::vector<double> flat;
+    flat.reserve(mine.size() * per);
+    for (const Sim& sim : mine) {
+      for (const auto& track : sim.tracks)
+        for (const auto& x : track) flat.insert(flat.end(), x.begin(), x.end());
+      flat.insert(flat.end(), sim.scalars.begin(), sim.scalars.end());
+    }
+    std::vector<int> counts(R);
+    for (std::size_t q = 0; q < R; ++q) counts[q] = int((lo(q + 1) - lo(q)) * per);
+    const std::vector<double> every = sh.all_gather(flat, counts);
+    std::vector<Sim> out(n, blank());
+    std::size_t i = 0;
+    for (Sim& sim : out) {
+      for (auto& track : sim.tracks)
+        for (auto& x : track)
+          for (double& v : x) v = every[i++];
+      for (double& v : sim.scalars) v = every[i++];
+    }
+    return out;
+  }
+
+ private:
+  Sim blank() const {
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    return {Tracks(data.tracks.size(), std::vector<std::array<double, 3>>(data.time.size(), {nan, nan, nan})),
+            std::vector<double>(data.scalars.size(), nan)};
+  }
+
+  std::vector<Sim> run_here(const std::vector<std::vector<double>>& all) const {
     const std::size_t T = data.time.size();
-    const std::vector<std::array<double, 3>> none(
-        T, {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
-            std::numeric_limits<double>::quiet_NaN()});
-    std::vector<Tracks> out(all.size(), Tracks(data.tracks.size(), none));
+    std::vector<Sim> out(all.size(), blank());
     // candidates the scene refuses (a τE below its bound for τS, …) are left
     // out: their tracks stay NaN, their misfit infinite
     std::vector<std::vector<double>> points;
@@ -322,14 +447,14 @@ struct Evaluator {
     std::filesystem::remove(work, ec);
     for (std::size_t v = 0; v < points.size(); ++v) {
       const ProbeRecord& rec = r.run.probes[v];
+      if (!std::isnan(rec.failed_at)) continue;  // (a failed run: NaN)
       const std::vector<double> val = observed_values(rec.observed);
-      Tracks& tr = out[index[v]];
-      const bool failed = !std::isnan(rec.failed_at);
+      Sim& sim = out[index[v]];
+      const std::size_t base = std::size_t(own_columns);
       for (std::size_t k = 0; k < data.tracks.size(); ++k)
         for (int a = 0; a < 3; ++a)
-          for (std::size_t i = 0; i < T; ++i)
-            tr[k][i][std::size_t(a)] =
-                failed ? std::numeric_limits<double>::quiet_NaN() : val[(3 * k + std::size_t(a)) * T + i];
+          for (std::size_t i = 0; i < T; ++i) sim.tracks[k][i][std::size_t(a)] = val[base + (3 * k + std::size_t(a)) * T + i];
+      for (std::size_t q = 0; q < data.scalars.size(); ++q) sim.scalars[q] = val[std::size_t(data.scalars[q].column)];
     }
     return out;
   }
@@ -341,18 +466,21 @@ double noise(const Track& t, const CalibrateOptions& opt) {
   return std::isnan(opt.sigma) ? 1.0 : opt.sigma;
 }
 
-// the whitened residuals of simulated tracks against the data (finite
-// samples only, in a fixed order); NaN entries where the run failed
-std::vector<double> residuals(const Evaluator::Tracks& sim, const Measurements& data, const CalibrateOptions& opt) {
+// the whitened residuals of a candidate's tracks and scalars against the
+// data (finite samples only, in a fixed order: the tracks', then the
+// scalars'); NaN entries where the run failed
+std::vector<double> residuals(const Evaluator::Sim& sim, const Measurements& data, const CalibrateOptions& opt) {
   std::vector<double> r;
   for (std::size_t k = 0; k < data.tracks.size(); ++k) {
     const double s = noise(data.tracks[k], opt);
     for (std::size_t i = 0; i < data.time.size(); ++i)
       for (int a = 0; a < 3; ++a) {
         const double m = data.tracks[k].x[i][std::size_t(a)];
-        if (std::isfinite(m)) r.push_back((sim[k][i][std::size_t(a)] - m) / s);
+        if (std::isfinite(m)) r.push_back((sim.tracks[k][i][std::size_t(a)] - m) / s);
       }
   }
+  for (std::size_t q = 0; q < data.scalars.size(); ++q)
+    r.push_back((sim.scalars[q] - data.scalars[q].value) / data.scalars[q].sigma);
   return r;
 }
 
@@ -369,6 +497,118 @@ double prior_term(const std::vector<FitParameter>& fit, const std::vector<double
 }  // namespace
 
 namespace {
+
+// ---- the search's state file (CalibrateOptions::state) --------------------------------
+
+// FNV-1a over what decides the search: the scene text, the fit, the
+// measurements, the seed, λ and the default noise (not the budget, the
+// tolerance or the threads: a calibration continued with more generations
+// or other threads goes on the same search)
+std::uint64_t fingerprint(const std::string& text, const std::vector<FitParameter>& fit, const Measurements& data,
+                          const CalibrateOptions& opt, int lambda) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  auto bytes = [&](const void* p, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ static_cast<const unsigned char*>(p)[i]) * 0x100000001b3ull;
+  };
+  auto str = [&](const std::string& x) { bytes(x.data(), x.size() + 1); };  // (with its end)
+  auto num = [&](double x) { bytes(&x, sizeof x); };
+  str(text);
+  for (const FitParameter& p : fit) {
+    str(p.key);
+    const int k = int(p.kind);
+    bytes(&k, sizeof k);
+    num(p.lo), num(p.hi), num(p.mean), num(p.std);
+  }
+  for (double t : data.time) num(t);
+  for (const Track& t : data.tracks) {
+    str(t.name), num(t.sigma);
+    for (const auto& x : t.x) num(x[0]), num(x[1]), num(x[2]);
+  }
+  for (const ScalarMeasurement& m : data.scalars) str(m.name), num(m.value), num(m.sigma);
+  bytes(&opt.seed, sizeof opt.seed);
+  bytes(&lambda, sizeof lambda);
+  num(opt.sigma);
+  return h;
+}
+
+// The state as text (written to path.tmp, then renamed: a stop while it is
+// written leaves the last one whole):
+//   manyrods calibrate state 1
+//   fingerprint F
+//   generations G evaluations E converged 0|1
+//   best f u_1 … u_d
+//   history f_1 σ_1 … f_G σ_G
+//   cmaes …                              (CmaEs::save)
+void write_state(const std::string& path, std::uint64_t print, const CmaEs& es, const std::vector<double>& best_u,
+                 double best, const Calibration& c) {
+  std::string out = "manyrods calibrate state 1\n";
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "fingerprint %016llx\n", static_cast<unsigned long long>(print));
+  out += buf;
+  std::snprintf(buf, sizeof buf, "generations %d evaluations %d converged %d\nbest %a", c.generations, c.evaluations,
+                int(c.converged), best);
+  out += buf;
+  for (double u : best_u) std::snprintf(buf, sizeof buf, " %a", u), out += buf;
+  out += "\nhistory";
+  for (std::size_t g = 0; g < c.history_best.size(); ++g)
+    std::snprintf(buf, sizeof buf, " %a %a", c.history_best[g], c.history_step[g]), out += buf;
+  out += "\n" + es.save() + "\n";
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary);
+    f << out;
+    if (!f.flush()) throw SceneError(path + ": cannot write the calibration's state");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw SceneError(path + ": cannot rename " + tmp + " to it: " + ec.message());
+}
+
+void read_state(const std::string& path, std::uint64_t print, CmaEs& es, std::vector<double>& best_u, double& best,
+                Calibration& c) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  auto bad = [&](const std::string& why) {
+    return SceneError(path + ": not the state of a calibration (" + why +
+                      "); remove it to start afresh");
+  };
+  if (lines.size() != 6 || lines[0] != "manyrods calibrate state 1") throw bad("its first line, or its lines");
+  unsigned long long f = 0;
+  if (std::sscanf(lines[1].c_str(), "fingerprint %llx", &f) != 1) throw bad("line 2");
+  if (f != print)
+    throw SceneError(path + ": the state of a calibration with other inputs (the scene, the measurements, --fit, "
+                            "--seed, --population or --sigma differ); remove it to start afresh, or give those of "
+                            "the calibration it continues");
+  int conv = 0;
+  if (std::sscanf(lines[2].c_str(), "generations %d evaluations %d converged %d", &c.generations, &c.evaluations,
+                  &conv) != 3 || c.generations < 1)
+    throw bad("line 3");
+  std::istringstream b(lines[3]);
+  std::string word;
+  b >> word;
+  auto hex = [&](std::istringstream& is, double& x) {
+    std::string t;
+    if (!(is >> t)) return false;
+    char* end = nullptr;
+    x = std::strtod(t.c_str(), &end);
+    return end && *end == 0;
+  };
+  if (word != "best" || !hex(b, best)) throw bad("line 4");
+  for (double& u : best_u)
+    if (!hex(b, u)) throw bad("line 4");
+  std::istringstream hi(lines[4]);
+  hi >> word;
+  c.history_best.assign(std::size_t(c.generations), 0), c.history_step.assign(std::size_t(c.generations), 0);
+  for (int g = 0; g < c.generations; ++g)
+    if (!hex(hi, c.history_best[std::size_t(g)]) || !hex(hi, c.history_step[std::size_t(g)])) throw bad("line 5");
+  if (word != "history" || !es.restore(lines[5])) throw bad("line 6");
+  c.converged = conv != 0;
+}
+
+}  // namespace
+
+namespace {
 std::atomic<std::uint64_t> calibration_count{0};  // (each calibration's batch file its own, threads too)
 }  // namespace
 
@@ -379,7 +619,9 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   const std::size_t d = fit.size();
   Calibration c;
   c.fit = fit;
-  Evaluator ev{text, source, fit, data, opt, {}, {}, 0, base.sim.dt_auto, "", 0, {}};
+  c.data = data;
+  Evaluator ev{text, source, data, opt, {}, base.observables, 0, 0, base.sim.dt_auto, "", 0, {}, false};
+  ev.own_columns = int(observable_columns(base.observables).size());
   for (const FitParameter& p : fit) ev.names.push_back(p.key);
   for (std::size_t k = 0; k < data.tracks.size(); ++k)
     for (int a = 0; a < 3; ++a) {
@@ -393,7 +635,9 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
       o.times = data.time;
       ev.obs.push_back(o);
     }
-  ev.duration = std::min(base.sim.duration, data.time.back());
+  // (tracks only: up to their last time; scalars reduce over the whole run)
+  ev.duration = data.scalars.empty() && !data.time.empty() ? std::min(base.sim.duration, data.time.back())
+                                                           : base.sim.duration;
   if (!(ev.duration > 0)) ev.duration = base.sim.duration;
   ev.work = (std::filesystem::temp_directory_path() /
              ("manyrods-calibrate-" + std::to_string(long(::getpid())) + "-" + std::to_string(++calibration_count) +
@@ -439,6 +683,11 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   c.duration = ev.duration;
   for (const Track& t : data.tracks) c.sigma_given = c.sigma_given || !std::isnan(t.sigma);
   c.sigma_given = c.sigma_given || !std::isnan(opt.sigma);
+  // (scalars come with their noise; tracks without would weigh 1 m against it)
+  if (!data.scalars.empty() && !data.tracks.empty() && !c.sigma_given)
+    throw SceneError(data.path + ": tracks without their noise cannot be weighed against the scalars' (give --sigma, or "
+                     "a sigma column)");
+  c.sigma_given = c.sigma_given || !data.scalars.empty();
   for (std::size_t j = 0; j < d; ++j) {
     // (a prior weighs against the data in units of their noise: with σ
     // unknown, σ = 1 m would let it outweigh any data in millimetres)
@@ -448,7 +697,7 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
       if (fit[i].key == fit[j].key) throw SceneError("--fit " + fit[j].key + ": given twice");
   }
 
-  auto objective = [&](const Evaluator::Tracks& sim, const std::vector<double>& theta, double* data_part) {
+  auto objective = [&](const Evaluator::Sim& sim, const std::vector<double>& theta, double* data_part) {
     const std::vector<double> r = residuals(sim, data, opt);
     double chi2 = 0;
     for (double x : r) chi2 += x * x;
@@ -461,14 +710,19 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   CmaEs es(int(d), std::vector<double>(d, 0.5), 0.3, opt.population, opt.seed);
   std::vector<double> best_u(d, 0.5);
   double best = HUGE_VAL;
-  for (int gen = 0; gen < opt.max_generations; ++gen) {
+  const std::uint64_t print = fingerprint(text, fit, data, opt, es.lambda());
+  if (!opt.state.empty() && std::filesystem::exists(opt.state)) {
+    read_state(opt.state, print, es, best_u, best, c);
+    c.resumed = c.generations;
+  }
+  for (int gen = c.generations; !c.converged && gen < opt.max_generations; ++gen) {
     std::vector<std::vector<double>> u = es.ask();
     for (auto& x : u)
       for (double& v : x) v = reflect_unit(v);
     std::vector<std::vector<double>> pts;
     for (const auto& x : u) pts.push_back(to_values(x));
-    const std::vector<Evaluator::Tracks> sims = ev.run(pts);
-    if (opt.interrupt && *opt.interrupt) {
+    const std::vector<Evaluator::Sim> sims = ev.run(pts);
+    if (ev.stopped) {
       c.interrupted = true;
       break;
     }
@@ -485,11 +739,9 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
     c.generations = gen + 1;
     c.history_best.push_back(best);
     c.history_step.push_back(es.step());
+    c.converged = es.step() * es.max_axis() < opt.tolerance;
+    if (!opt.state.empty() && opt.shards.rank == 0) write_state(opt.state, print, es, best_u, best, c);
     if (opt.on_generation) opt.on_generation(gen + 1, best, es.step());
-    if (es.step() * es.max_axis() < opt.tolerance) {
-      c.converged = true;
-      break;
-    }
   }
 
   // interrupted: the best so far, no uncertainty
@@ -518,11 +770,12 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
       pts.push_back(v);
     }
   }
-  const std::vector<Evaluator::Tracks> sims = ev.run(pts);
-  if (opt.interrupt && *opt.interrupt) return stopped();  // (during the uncertainty's batch)
+  const std::vector<Evaluator::Sim> sims = ev.run(pts);
+  if (ev.stopped) return stopped();  // (during the uncertainty's batch)
   c.best = pts[0];
   c.misfit = objective(sims[0], th, &c.data_misfit);
-  c.fitted = sims[0];
+  c.fitted = sims[0].tracks;
+  c.fitted_scalars = sims[0].scalars;
   const std::vector<double> r0 = residuals(sims[0], data, opt);
   c.samples = std::int64_t(r0.size());
   Eigen::MatrixXd J(Eigen::Index(r0.size()), Eigen::Index(d));
@@ -603,6 +856,29 @@ RunResult run_best_fit(const std::string& text, const std::string& source, const
     std::vector<double> gen(c.history_best.size());
     for (std::size_t g = 0; g < gen.size(); ++g) gen[g] = double(g + 1);
     w.write_table("calibration_history", {{"generation", gen}, {"best_misfit", c.history_best}, {"step", c.history_step}});
+    const Measurements& m = c.data;
+    if (!m.tracks.empty() && c.fitted.size() == m.tracks.size()) {
+      std::vector<h5::Column> tracks{{"time", m.time}};
+      std::vector<std::string> names;
+      for (std::size_t k = 0; k < m.tracks.size(); ++k) {
+        names.push_back(m.tracks[k].name);
+        for (int a = 0; a < 3; ++a)
+          for (const char* which : {"measured", "fitted"}) {
+            h5::Column col{std::string(which) + "_" + std::to_string(k) + "_" + "xyz"[a], {}};
+            const auto& x = which[0] == 'm' ? m.tracks[k].x : c.fitted[k];
+            for (const auto& p : x) col.values.push_back(p[std::size_t(a)]);
+            tracks.push_back(std::move(col));
+          }
+      }
+      w.write_table("calibration_tracks", tracks, "tracks", names);
+    }
+    if (!m.scalars.empty() && c.fitted_scalars.size() == m.scalars.size()) {
+      std::vector<h5::Column> sc{{"measured", {}}, {"sigma", {}}, {"fitted", c.fitted_scalars}};
+      std::vector<std::string> names;
+      for (const ScalarMeasurement& q : m.scalars)
+        names.push_back(q.name), sc[0].values.push_back(q.value), sc[1].values.push_back(q.sigma);
+      w.write_table("calibration_scalars", sc, "rows", names);
+    }
   };
   return run_scene(s, ro);
 }

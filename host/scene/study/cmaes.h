@@ -19,14 +19,22 @@
 // uses positive weights only (the tutorial's active, negative weights are
 // left out).
 //
+// save/restore write and read the whole state as text (hexadecimal
+// floating point: exact), so that a search stopped after a generation and
+// restored goes on bit for bit as one that never stopped.
+//
 // Reads and writes: its own state only.
 #pragma once
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cinttypes>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <numeric>
+#include <string>
 #include <vector>
 
 #include "manyrods/rng.h"
@@ -64,6 +72,56 @@ class CmaEs {
   // the longest axis of the search distribution (√ of C's largest eigenvalue)
   double max_axis() const { return D_.maxCoeff(); }
   std::vector<double> mean() const { return {m_.data(), m_.data() + n_}; }
+
+  // The state between generations (after tell, or the start) as text, and
+  // back: restore returns false where the text is not a state of a search
+  // of this n and λ.
+  std::string save() const {
+    std::string out;
+    char buf[64];
+    auto num = [&](double x) {
+      std::snprintf(buf, sizeof buf, " %a", x);
+      out += buf;
+    };
+    std::snprintf(buf, sizeof buf, "cmaes %d %d %d %" PRIu64, n_, lambda_, gen_, rng_.s);
+    out += buf;
+    num(sigma_);
+    for (const Eigen::VectorXd* v : {&m_, &ps_, &pc_})
+      for (int i = 0; i < n_; ++i) num((*v)[i]);
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j < n_; ++j) num(C_(i, j));
+    return out;
+  }
+  bool restore(const std::string& text) {
+    const char* p = text.c_str();
+    int n = 0, lambda = 0, gen = 0, used = 0;
+    std::uint64_t s = 0;
+    if (std::sscanf(p, "cmaes %d %d %d %" SCNu64 "%n", &n, &lambda, &gen, &s, &used) != 4 || n != n_ ||
+        lambda != lambda_ || gen < 0)
+      return false;
+    p += used;
+    auto num = [&](double& x) {
+      char* end = nullptr;
+      x = std::strtod(p, &end);
+      if (end == p) return false;
+      p = end;
+      return true;
+    };
+    double sigma = 0;
+    Eigen::VectorXd m(n_), ps(n_), pc(n_);
+    Eigen::MatrixXd C(n_, n_);
+    if (!num(sigma)) return false;
+    for (Eigen::VectorXd* v : {&m, &ps, &pc})
+      for (int i = 0; i < n_; ++i)
+        if (!num((*v)[i])) return false;
+    for (int i = 0; i < n_; ++i)
+      for (int j = 0; j < n_; ++j)
+        if (!num(C(i, j))) return false;
+    if (!(sigma > 0) || !m.allFinite() || !C.allFinite()) return false;
+    gen_ = gen, rng_.s = s, sigma_ = sigma, m_ = m, ps_ = ps, pc_ = pc, C_ = C;
+    decompose();
+    return true;
+  }
 
   // λ candidates
   std::vector<std::vector<double>> ask() {
@@ -112,14 +170,19 @@ class CmaEs {
     }
     C_ = (1 - c1_ - cmu_) * C_ + c1_ * (pc_ * pc_.transpose() + (hs ? 0.0 : cc_ * (2 - cc_)) * C_) + cmu_ * rank_mu;
     sigma_ *= std::exp((cs_ / ds_) * (ps_.norm() / chin_ - 1));
-    // C = B D² Bᵀ (symmetrised against round-off)
+    // (symmetrised against round-off)
     C_ = 0.5 * (C_ + C_.transpose());
+    decompose();
+  }
+
+ private:
+  // C = B D² Bᵀ
+  void decompose() {
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(C_);
     B_ = eig.eigenvectors();
     D_ = eig.eigenvalues().cwiseMax(1e-300).cwiseSqrt();
   }
 
- private:
   int n_, lambda_, mu_ = 0, gen_ = 0;
   double sigma_, mueff_ = 0, cs_ = 0, ds_ = 0, cc_ = 0, c1_ = 0, cmu_ = 0, chin_ = 0;
   Rng rng_;
