@@ -25,6 +25,7 @@ docs/python.md has the whole interface.
 
 from ._core import (  # noqa: F401
     Batch,
+    CmaEs,
     Damping,
     Material,
     NonFiniteError,

@@ -69,5 +69,6 @@ void bind_rod(nb::module_& m);        // rod.cpp
 void bind_batch(nb::module_& m);      // batch.cpp
 void bind_scene(nb::module_& m);      // scene.cpp
 void bind_io(nb::module_& m);         // scene.cpp
+void bind_cmaes(nb::module_& m);      // cmaes.cpp
 
 }  // namespace manyrods_python

@@ -3,7 +3,8 @@
 //
 // NB_MODULE calls one bind_* per class or group (python/src/bindings.h), in
 // order: errors (here), sections, materials, damping and rods (rod.cpp),
-// batches (batch.cpp), scenes and the module's readers (scene.cpp).
+// batches (batch.cpp), scenes and the module's readers (scene.cpp), the
+// CMA-ES (cmaes.cpp).
 #include "bindings.h"
 #include "manyrods/curves.h"
 #include "manyrods/h5io.h"
@@ -41,6 +42,7 @@ NB_MODULE(_core, m) {
   manyrods_python::bind_batch(m);
   manyrods_python::bind_scene(m);
   manyrods_python::bind_io(m);
+  manyrods_python::bind_cmaes(m);
   // binary USD grooms (.usdc, .usdz) through OpenUSD's pxr, imported when
   // one is read (docs/scenes.md "Grooms from curves")
   manyrods::scene::set_usd_converter([](const std::string& path) -> std::string {

@@ -795,8 +795,15 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   Eigen::MatrixXd F = J.transpose() * J;
   for (std::size_t j = 0; j < d; ++j)
     if (fit[j].prior()) F(Eigen::Index(j), Eigen::Index(j)) += 1 / (fit[j].std * fit[j].std);
-  // s² from the residuals where the noise was not given
-  const double dof = double(c.samples) - double(d);
+  // s² from the residuals where the noise was not given, over the samples
+  // that carry something: one whose residual is exactly zero and that no
+  // parameter moves (a coordinate the data and every run leave at the same
+  // value, e.g. y of a swing in the xz plane measured from a run) is no
+  // degree of freedom, and counted it would shrink s²
+  Eigen::Index informative = 0;
+  for (Eigen::Index i = 0; i < J.rows(); ++i)
+    informative += r0[std::size_t(i)] != 0 || J.row(i).cwiseAbs().maxCoeff() != 0 || !J.row(i).allFinite();
+  const double dof = double(informative) - double(d);
   const double s2 = c.sigma_given ? 1.0 : (dof > 0 ? c.data_misfit / dof : HUGE_VAL);
   // in units of the search ranges: a direction whose deviation exceeds half
   // the range is flat (not determined by the data)

@@ -17,7 +17,9 @@
 // (the same on every platform); ties in the ranking keep the candidates'
 // order (a stable sort), so a run is reproducible for a seed. Recombination
 // uses positive weights only (the tutorial's active, negative weights are
-// left out).
+// left out); a failed candidate (objective not finite) among the μ best
+// gets no weight, the others' renormalised, and a generation in which every
+// candidate failed changes nothing (the next one draws afresh).
 //
 // save/restore write and read the whole state as text (hexadecimal
 // floating point: exact), so that a search stopped after a generation and
@@ -65,6 +67,16 @@ class CmaEs {
     C_ = Eigen::MatrixXd::Identity(n, n);
     B_ = C_, D_ = Eigen::VectorXd::Ones(n);
     ps_ = pc_ = Eigen::VectorXd::Zero(n);
+  }
+
+  // The strategy's parameters (the formulas above), for checks against
+  // other implementations.
+  struct Parameters {
+    std::vector<double> weights;  // w_1 … w_μ
+    double mueff, cs, ds, cc, c1, cmu;
+  };
+  Parameters parameters() const {
+    return {std::vector<double>(w_.data(), w_.data() + mu_), mueff_, cs_, ds_, cc_, c1_, cmu_};
   }
 
   int lambda() const { return lambda_; }
@@ -155,8 +167,19 @@ class CmaEs {
       const double len = (Cinvsqrt * y).norm();
       if (len > longest) y *= longest / len;
     }
+    // the weights of the μ best; a failed candidate (f not finite) among
+    // them gets none, the others' renormalised (its step is a random draw,
+    // not a direction towards anything better)
+    Eigen::VectorXd w = w_;
+    for (int i = 0; i < mu_; ++i)
+      if (!std::isfinite(f[std::size_t(order[std::size_t(i)])])) w[i] = 0;
+    if (!(w.sum() > 0)) {  // none ran: nothing learnt, the next generation draws afresh from the same distribution
+      ++gen_;
+      return;
+    }
+    if (w != w_) w /= w.sum();
     Eigen::VectorXd yw = Eigen::VectorXd::Zero(n_);
-    for (int i = 0; i < mu_; ++i) yw += w_[i] * y_[std::size_t(order[std::size_t(i)])];
+    for (int i = 0; i < mu_; ++i) yw += w[i] * y_[std::size_t(order[std::size_t(i)])];
     m_ += sigma_ * yw;
     ps_ = (1 - cs_) * ps_ + std::sqrt(cs_ * (2 - cs_) * mueff_) * (Cinvsqrt * yw);
     ++gen_;
@@ -166,7 +189,7 @@ class CmaEs {
     Eigen::MatrixXd rank_mu = Eigen::MatrixXd::Zero(n_, n_);
     for (int i = 0; i < mu_; ++i) {
       const Eigen::VectorXd& y = y_[std::size_t(order[std::size_t(i)])];
-      rank_mu += w_[i] * y * y.transpose();
+      rank_mu += w[i] * y * y.transpose();
     }
     C_ = (1 - c1_ - cmu_) * C_ + c1_ * (pc_ * pc_.transpose() + (hs ? 0.0 : cc_ * (2 - cc_)) * C_) + cmu_ * rank_mu;
     sigma_ *= std::exp((cs_ / ds_) * (ps_.norm() / chin_ - 1));
