@@ -636,10 +636,13 @@ int command_calibrate(const Options& o) {
     std::fprintf(stderr, "manyrods calibrate: continued the search from generation %d (%s)\n", c.resumed, state.c_str());
   if (c.interrupted) {  // nothing written but the state: the best so far on stderr
     if (lead) {
-      std::fprintf(stderr,
-                   "manyrods calibrate: interrupted after %d generations; the search is kept in %s: run the same "
-                   "command to continue it. The best so far:\n",
-                   c.generations, state.c_str());
+      if (c.generations > 0)
+        std::fprintf(stderr,
+                     "manyrods calibrate: interrupted after %d generations; the search is kept in %s: run the same "
+                     "command to continue it. The best so far:\n",
+                     c.generations, state.c_str());
+      else
+        std::fprintf(stderr, "manyrods calibrate: interrupted in the first generation (nothing kept). The start:\n");
       for (std::size_t j = 0; j < fit.size(); ++j) std::fprintf(stderr, "  %s = %.6g\n", fit[j].key.c_str(), c.best[j]);
     }
     return 130;

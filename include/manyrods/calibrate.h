@@ -140,7 +140,7 @@ struct Calibration {
   std::vector<std::vector<double>> covariance;  // in θ, [d][d]
   double misfit = 0;              // χ² at the best (priors included)
   double data_misfit = 0;         // χ² of the data alone
-  std::int64_t samples = 0;       // N: finite measured coordinates
+  std::int64_t samples = 0;       // N: finite measured coordinates and scalars, less those that carry nothing (s² below)
   bool sigma_given = false;       // false: the covariance is scaled by s² = χ²/(N − d)
   int generations = 0, evaluations = 0;
   bool converged = false;         // by the tolerance (else by the budget or an interrupt)

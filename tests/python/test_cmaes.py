@@ -98,3 +98,10 @@ def test_bad_arguments_are_named():
         es.tell(x[:3], [1.0, 2.0, 3.0])
     with pytest.raises(ValueError, match="coordinates"):
         es.tell([[0.0]] * 4, [1.0] * 4)
+    with pytest.raises(ValueError, match="not finite"):
+        es.tell([[0.0, math.nan]] + x[1:], [1.0] * 4)
+    # a tell without its ask takes the points given; NaN values rank last
+    fresh = manyrods.CmaEs([0.0, 0.0], 0.5, population=4, seed=3)
+    fresh.tell([[1.0, 0.0], [0.5, 0.0], [0.0, 1.0], [0.0, 0.5]], [math.nan, 1.0, math.nan, 2.0])
+    assert all(math.isfinite(v) for v in fresh.mean)
+    assert fresh.mean[0] > 0.25 and fresh.mean[1] < 0.25  # (towards the best, (0.5, 0), not the NaN ones)

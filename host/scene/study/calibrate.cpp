@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numeric>
+#include <limits>
 #include <sstream>
 
 #include <unistd.h>
@@ -385,6 +386,9 @@ struct Evaluator {
         for (const auto& x : track) flat.insert(flat.end(), x.begin(), x.end());
       flat.insert(flat.end(), sim.scalars.begin(), sim.scalars.end());
     }
+    if (double(n) * double(per) > double(std::numeric_limits<int>::max()))
+      throw SceneError("calibrate: a generation's tracks (" + std::to_string(n) + " candidates x " + std::to_string(per) +
+                       " values) exceed what MPI gathers in one call (2^31 - 1 values): measure fewer nodes or times");
     std::vector<int> counts(R);
     for (std::size_t q = 0; q < R; ++q) counts[q] = int((lo(q + 1) - lo(q)) * per);
     const std::vector<double> every = sh.all_gather(flat, counts);
@@ -504,8 +508,8 @@ namespace {
 // measurements, the seed, λ and the default noise (not the budget, the
 // tolerance or the threads: a calibration continued with more generations
 // or other threads goes on the same search)
-std::uint64_t fingerprint(const std::string& text, const std::vector<FitParameter>& fit, const Measurements& data,
-                          const CalibrateOptions& opt, int lambda) {
+std::uint64_t fingerprint(const std::string& text, const Scene& scene, const std::vector<FitParameter>& fit,
+                          const Measurements& data, const CalibrateOptions& opt, int lambda) {
   std::uint64_t h = 0xcbf29ce484222325ull;
   auto bytes = [&](const void* p, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) h = (h ^ static_cast<const unsigned char*>(p)[i]) * 0x100000001b3ull;
@@ -513,6 +517,13 @@ std::uint64_t fingerprint(const std::string& text, const std::vector<FitParamete
   auto str = [&](const std::string& x) { bytes(x.data(), x.size() + 1); };  // (with its end)
   auto num = [&](double x) { bytes(&x, sizeof x); };
   str(text);
+  for (const std::string& in : scene.inputs) {  // (its meshes and curves: their contents; the scene's own is the text)
+    if (in == scene.source) continue;
+    std::ifstream f(in, std::ios::binary);
+    std::ostringstream all;
+    all << f.rdbuf();
+    str(in), str(all.str());
+  }
   for (const FitParameter& p : fit) {
     str(p.key);
     const int k = int(p.kind);
@@ -620,13 +631,16 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   Calibration c;
   c.fit = fit;
   c.data = data;
-  Evaluator ev{text, source, data, opt, {}, base.observables, 0, 0, base.sim.dt_auto, "", 0, {}, false};
-  ev.own_columns = int(observable_columns(base.observables).size());
+  // (the scene's own observables only where scalars are measured; the
+  // tracks' columns named as no scene's can be: # is not a name character)
+  Evaluator ev{text, source, data, opt, {}, {}, 0, 0, base.sim.dt_auto, "", 0, {}, false};
+  if (!data.scalars.empty()) ev.obs = base.observables;
+  ev.own_columns = int(observable_columns(ev.obs).size());
   for (const FitParameter& p : fit) ev.names.push_back(p.key);
   for (std::size_t k = 0; k < data.tracks.size(); ++k)
     for (int a = 0; a < 3; ++a) {
       Observable o;
-      o.name = "track_" + std::to_string(k) + "_" + "xyz"[a];
+      o.name = "#track_" + std::to_string(k) + "_" + "xyz"[a];
       o.quantity = Observable::Quantity::position;
       o.rod = data.tracks[k].rod;
       o.node = data.tracks[k].node;
@@ -710,11 +724,17 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   CmaEs es(int(d), std::vector<double>(d, 0.5), 0.3, opt.population, opt.seed);
   std::vector<double> best_u(d, 0.5);
   double best = HUGE_VAL;
-  const std::uint64_t print = fingerprint(text, fit, data, opt, es.lambda());
+  const std::uint64_t print = fingerprint(text, base, fit, data, opt, es.lambda());
   if (!opt.state.empty() && std::filesystem::exists(opt.state)) {
     read_state(opt.state, print, es, best_u, best, c);
     c.resumed = c.generations;
   }
+  // (MPI: every rank must continue from the same generation, or their
+  // shares would mix generations: a state that only some ranks see)
+  if (opt.shards.ranks > 1 &&
+      opt.shards.min_all(double(c.resumed)) != -opt.shards.min_all(-double(c.resumed)))
+    throw SceneError(opt.state + ": the MPI ranks do not all see this state file (some continue from it, some "
+                     "not): put the output where every rank reads it");
   for (int gen = c.generations; !c.converged && gen < opt.max_generations; ++gen) {
     std::vector<std::vector<double>> u = es.ask();
     for (auto& x : u)
@@ -803,6 +823,7 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   Eigen::Index informative = 0;
   for (Eigen::Index i = 0; i < J.rows(); ++i)
     informative += r0[std::size_t(i)] != 0 || J.row(i).cwiseAbs().maxCoeff() != 0 || !J.row(i).allFinite();
+  c.samples = std::int64_t(informative);
   const double dof = double(informative) - double(d);
   const double s2 = c.sigma_given ? 1.0 : (dof > 0 ? c.data_misfit / dof : HUGE_VAL);
   // in units of the search ranges: a direction whose deviation exceeds half

@@ -17,9 +17,10 @@
 // (the same on every platform); ties in the ranking keep the candidates'
 // order (a stable sort), so a run is reproducible for a seed. Recombination
 // uses positive weights only (the tutorial's active, negative weights are
-// left out); a failed candidate (objective not finite) among the μ best
-// gets no weight, the others' renormalised, and a generation in which every
-// candidate failed changes nothing (the next one draws afresh).
+// left out); a failed candidate (objective not finite; NaN ranks as +inf)
+// among the μ best gets no weight, the others' renormalised (and μ_eff the
+// paths use with them), and a generation in which every candidate failed
+// changes nothing (the next one draws afresh).
 //
 // save/restore write and read the whole state as text (hexadecimal
 // floating point: exact), so that a search stopped after a generation and
@@ -129,7 +130,8 @@ class CmaEs {
     for (int i = 0; i < n_; ++i)
       for (int j = 0; j < n_; ++j)
         if (!num(C(i, j))) return false;
-    if (!(sigma > 0) || !m.allFinite() || !C.allFinite()) return false;
+    if (!(sigma > 0) || !std::isfinite(sigma) || !m.allFinite() || !C.allFinite() || !ps.allFinite() || !pc.allFinite())
+      return false;
     gen_ = gen, rng_.s = s, sigma_ = sigma, m_ = m, ps_ = ps, pc_ = pc, C_ = C;
     decompose();
     return true;
@@ -153,9 +155,12 @@ class CmaEs {
   // box, which then replaces the sample) and their objective values
   // (smaller is better; +inf for a failed one).
   void tell(const std::vector<std::vector<double>>& x, const std::vector<double>& f) {
+    y_.resize(std::size_t(lambda_));  // (rebuilt from x below: a tell without its ask is a tell of those points)
+    // (NaN ranks as +inf: a failed candidate; a strict weak order for the sort)
+    auto value = [&](int k) { return std::isnan(f[std::size_t(k)]) ? HUGE_VAL : f[std::size_t(k)]; };
     std::vector<int> order(static_cast<std::size_t>(lambda_));
     std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return f[std::size_t(a)] < f[std::size_t(b)]; });
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return value(a) < value(b); });
     // the steps taken (a repaired candidate's, its length under C limited to
     // √n + 2n/(n + 2) as for injected solutions, Hansen 2011, so that a
     // reflection far off the distribution does not blow up the paths)
@@ -177,15 +182,19 @@ class CmaEs {
       ++gen_;
       return;
     }
-    if (w != w_) w /= w.sum();
+    double mueff = mueff_;  // (of the weights used: the paths' normalisation)
+    if (w != w_) {
+      w /= w.sum();
+      mueff = 1 / w.squaredNorm();
+    }
     Eigen::VectorXd yw = Eigen::VectorXd::Zero(n_);
     for (int i = 0; i < mu_; ++i) yw += w[i] * y_[std::size_t(order[std::size_t(i)])];
     m_ += sigma_ * yw;
-    ps_ = (1 - cs_) * ps_ + std::sqrt(cs_ * (2 - cs_) * mueff_) * (Cinvsqrt * yw);
+    ps_ = (1 - cs_) * ps_ + std::sqrt(cs_ * (2 - cs_) * mueff) * (Cinvsqrt * yw);
     ++gen_;
     const double hs_norm = ps_.norm() / std::sqrt(1 - std::pow(1 - cs_, 2.0 * gen_));
     const bool hs = hs_norm < (1.4 + 2 / (n_ + 1.0)) * chin_;
-    pc_ = (1 - cc_) * pc_ + (hs ? std::sqrt(cc_ * (2 - cc_) * mueff_) : 0.0) * yw;
+    pc_ = (1 - cc_) * pc_ + (hs ? std::sqrt(cc_ * (2 - cc_) * mueff) : 0.0) * yw;
     Eigen::MatrixXd rank_mu = Eigen::MatrixXd::Zero(n_, n_);
     for (int i = 0; i < mu_; ++i) {
       const Eigen::VectorXd& y = y_[std::size_t(order[std::size_t(i)])];
