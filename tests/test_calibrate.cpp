@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "host/scene/study/cmaes.h"
 #include "manyrods/calibrate.h"
 #include "manyrods/rng.h"
@@ -139,6 +141,12 @@ TEST(Calibrate, FitSpecsParseAndBadOnesAreNamed) {
 
 namespace {
 
+// A scratch file of this test process (ctest runs the tests of this file
+// as processes side by side: a shared name would be written by two at once)
+std::string temp_path(const std::string& name) {
+  return testing::TempDir() + std::to_string(long(::getpid())) + "_" + name;
+}
+
 // A small seed-like cantilever (n elements, 0.3 m) released from a tip
 // force, damped, at a fixed step.
 std::string beam(double E, double tau, int n = 10, double duration = 1.0, double tau_shear = 0.02) {
@@ -176,7 +184,7 @@ Measurements tip_track(double E, double tau, int n = 10, double duration = 1.0, 
     sw.scene.observables.push_back(o);
   }
   RunOptions ro;
-  ro.output = testing::TempDir() + "calibrate_truth.h5";
+  ro.output = temp_path("calibrate_truth.h5");
   ro.frames = RunOptions::Frames::none;
   const std::vector<double> v = observed_values(run_sweep(sw, ro).run.probes[0].observed);
   t.x.resize(m.time.size());
@@ -287,7 +295,7 @@ TEST(Calibrate, AStoppedCalibrationContinuesBitForBitFromItsState) {
   const Calibration whole = calibrate(text, "beam.toml", fit, data, opt);
   ASSERT_EQ(whole.generations, 12);
 
-  opt.state = testing::TempDir() + "calibrate_resume.state";
+  opt.state = temp_path("calibrate_resume.state");
   std::remove(opt.state.c_str());
   volatile std::sig_atomic_t stop = 0;
   opt.interrupt = &stop;
@@ -347,12 +355,12 @@ TEST(Calibrate, FitsAModulusToAMeasuredScalarObservable) {
   const double E = 1e6;
   Sweep sw = make_sweep(beam(E, 0.02) + obs, "beam.toml", {"rods.0.material.youngs_modulus"}, {{E}});
   RunOptions ro;
-  ro.output = testing::TempDir() + "calibrate_scalar_truth.h5";
+  ro.output = temp_path("calibrate_scalar_truth.h5");
   ro.frames = RunOptions::Frames::none;
   const double t = observed_values(run_sweep(sw, ro).run.probes[0].observed)[0];
   ASSERT_TRUE(t > 0.01 && t < 0.5) << t;
   const std::string text = beam(3e5, 0.02) + obs;
-  const std::string path = testing::TempDir() + "calibrate_scalars.csv";
+  const std::string path = temp_path("calibrate_scalars.csv");
   {
     std::FILE* f = std::fopen(path.c_str(), "w");
     ASSERT_NE(f, nullptr);
