@@ -460,6 +460,26 @@ struct MpiSession {
   MpiSession& operator=(const MpiSession&) = delete;
 };
 
+// f() on every rank of an MPI session: an error on one rank ends them all
+// (the others would wait in a collective), reported once by the rank that
+// had it; in one process it is thrown as it is.
+template <class F>
+auto on_every_rank(const Shards& sh, F&& f) {
+  try {
+    return f();
+  } catch (const std::exception& e) {
+#ifdef MANYRODS_MPI
+    if (sh.ranks > 1) {
+      report(e);
+      MPI_Abort(MPI_COMM_WORLD, 2);
+    }
+#else
+    (void)sh;
+#endif
+    throw;
+  }
+}
+
 // A sweep `--chunk` variations at a time (scene::run_sweep_chunked), its
 // chunks shared among the MPI ranks when launched by mpirun or srun: a
 // line per chunk, then (rank 0) the index file and the CSVs; stopped by
@@ -477,9 +497,8 @@ int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& d
     std::fprintf(stderr, "manyrods sweep: %zu variations in chunks of %d -> %s.chunks/%s\n", points.size(), o.chunk,
                  opt.output.c_str(), sh.ranks > 1 ? (" (" + std::to_string(sh.ranks) + " MPI ranks)").c_str() : "");
   const std::string who = sh.ranks > 1 ? "rank " + std::to_string(sh.rank) + ": " : "";
-  ChunkedSweep cs;
-  try {
-    cs = run_sweep_chunked(
+  const ChunkedSweep cs = on_every_rank(sh, [&] {
+    return run_sweep_chunked(
       read_file(o.scene_path), o.scene_path, names, points, o.chunk, opt,
       [&](int k, int n, const RunResult* r) {
         if (r)
@@ -490,15 +509,7 @@ int chunked_sweep(const Options& o, const std::vector<Vary>& vs, const Design& d
           std::fprintf(stderr, "manyrods: %schunk %d/%d: done before (read back)\n", who.c_str(), k + 1, n);
       },
       sh, design.kind == DesignKind::saltelli ? design.samples : 0);
-  } catch (const std::exception& e) {
-#ifdef MANYRODS_MPI
-    if (sh.ranks > 1) {  // the other ranks would wait in a collective: end them all
-      report(e);
-      MPI_Abort(MPI_COMM_WORLD, 2);
-    }
-#endif
-    throw;
-  }
+  });
   if (!cs.complete) {
     if (sh.rank == 0)
       std::fprintf(stderr, "manyrods: stopped; the finished chunks are kept: run the same command to continue\n");
@@ -580,22 +591,8 @@ int command_calibrate(const Options& o) {
   const Scene s = parse_scene(text, o.scene_path);
   std::vector<std::string> inputs = s.inputs;
   inputs.insert(inputs.end(), o.data.begin(), o.data.end());
-  check_h5_output(o.output, inputs, "-o");
   const std::string csv = o.csv.empty() ? fs::path(o.output).replace_extension(".csv").string() : o.csv;
-  check_extension(csv, {".csv"}, "--csv", "the fitted parameters (CSV)");
-  inputs.push_back(o.output);
-  check_not_input(csv, inputs, "--csv");
-  const std::string state = o.output + ".calibrate-state";
-  inputs.push_back(csv);
-  check_not_input(state, inputs, "the search's state (beside -o)");
-  // (both written at the end, after the whole calibration: their folders
-  // checked now)
-  for (const std::string& f : {o.output, csv}) {
-    const fs::path dir = fs::path(f).parent_path().empty() ? fs::path(".") : fs::path(f).parent_path();
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) throw SceneError(f + ": the folder " + dir.string() + " does not exist (nothing was run)");
-    if (fs::is_directory(f, ec)) throw SceneError(f + ": is a folder, not a file (nothing was run)");
-  }
+  const std::string state = check_calibration_outputs(o.output, csv, inputs, "-o", "--csv");
   std::vector<FitParameter> fit;
   for (const std::string& f : o.fit) fit.push_back(parse_fit(f));
   const Measurements data = read_measurements(o.data, s);
@@ -619,18 +616,7 @@ int command_calibrate(const Options& o) {
     std::fprintf(stderr, "manyrods calibrate: %zu parameters, %zu tracks at %zu times, %zu scalars%s\n", fit.size(),
                  data.tracks.size(), data.time.size(), data.scalars.size(),
                  mpi.shards.ranks > 1 ? (" (" + std::to_string(mpi.shards.ranks) + " MPI ranks)").c_str() : "");
-  Calibration c;
-  try {
-    c = calibrate(text, o.scene_path, fit, data, opt);
-  } catch (const std::exception& e) {
-#ifdef MANYRODS_MPI
-    if (mpi.shards.ranks > 1) {  // the other ranks would wait in a collective: end them all
-      report(e);
-      MPI_Abort(MPI_COMM_WORLD, 2);
-    }
-#endif
-    throw;
-  }
+  const Calibration c = on_every_rank(mpi.shards, [&] { return calibrate(text, o.scene_path, fit, data, opt); });
   if (o.progress && lead) std::fputc('\n', stderr);
   if (c.resumed > 0 && lead)
     std::fprintf(stderr, "manyrods calibrate: continued the search from generation %d (%s)\n", c.resumed, state.c_str());

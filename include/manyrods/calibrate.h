@@ -162,6 +162,16 @@ struct Calibration {
 Calibration calibrate(const std::string& text, const std::string& source, const std::vector<FitParameter>& fit,
                       const Measurements& data, const CalibrateOptions& opt);
 
+// The files a calibration writes, checked before any work (SceneError,
+// nothing run): `output` (HDF5, the best fit's run), `csv` (empty: none) and
+// the search's state (CalibrateOptions::state), returned: output +
+// ".calibrate-state". None may be one of `inputs` (the scene's files, the
+// measurements) or another of them, and their folders must exist;
+// output_name and csv_name name them in the messages (`-o`, `--csv`).
+std::string check_calibration_outputs(const std::string& output, const std::string& csv,
+                                      std::vector<std::string> inputs, const std::string& output_name,
+                                      const std::string& csv_name);
+
 // Runs the scene at the best fit (its step and duration the calibration's) into
 // `output` with /calibration (a dataset per key: value, sigma, sigma_theta,
 // determined, lo, hi; the rows' names in its attribute "rows"),

@@ -157,15 +157,7 @@ void bind_scene_calibrate(nb::class_<Scene>& c) {
                                                    : std::get<std::vector<std::string>>(data_arg);
          std::vector<std::string> inputs = s.inputs;
          inputs.insert(inputs.end(), data.begin(), data.end());
-         sc::check_h5_output(output, inputs, "output");
-         inputs.push_back(output);
-         if (csv) {
-           sc::check_extension(*csv, {".csv"}, "csv", "the fitted parameters (CSV)");
-           sc::check_not_input(*csv, inputs, "csv");
-           inputs.push_back(*csv);
-         }
-         const std::string state = output + ".calibrate-state";
-         sc::check_not_input(state, inputs, "the search's state (beside output)");
+         const std::string state = sc::check_calibration_outputs(output, csv.value_or(""), inputs, "output", "csv");
          sc::Calibration r;
          {
            nb::gil_scoped_release release;

@@ -10,8 +10,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <numeric>
 #include <limits>
+#include <numeric>
 #include <sstream>
 
 #include <unistd.h>
@@ -173,12 +173,10 @@ std::vector<std::string> csv_header(std::ifstream& in, int& ln) {
   return head;
 }
 
-// observable,value,sigma (read_measurements)
-Measurements read_scalars(const std::string& path, const Scene& s) {
-  std::ifstream in(path);
-  if (!in) throw SceneError(path + ": cannot open the measurements");
-  int ln = 0;
-  const std::vector<std::string> head = csv_header(in, ln);
+// observable,value,sigma (read_measurements): the rows after the header
+// `head` (on line ln) of the file `in`
+Measurements read_scalars(std::ifstream& in, const std::string& path, const std::vector<std::string>& head, int ln,
+                          const Scene& s) {
   if (head.size() != 3 || head[1] != "value" || head[2] != "sigma")
     throw SceneError(path + ":" + std::to_string(ln) +
                      ": a scalars file's header must be observable,value,sigma (sigma: each scalar's noise, in its unit)");
@@ -224,7 +222,7 @@ Measurements read_csv(const std::string& path, const Scene& s) {
   std::string line;
   int ln = 0;
   const std::vector<std::string> head = csv_header(in, ln);
-  if (!head.empty() && head[0] == "observable") return read_scalars(path, s);
+  if (!head.empty() && head[0] == "observable") return read_scalars(in, path, head, ln, s);
   const bool with_sigma = head.size() == 6 && head[5] == "sigma";
   if (!(head.size() == 5 || with_sigma) || head[0] != "time" || head[1] != "track" || head[2] != "x" ||
       head[3] != "y" || head[4] != "z")
@@ -373,6 +371,9 @@ struct Evaluator {
       return out;
     }
     const std::size_t n = all.size(), R = std::size_t(sh.ranks), per = values_per_sim();
+    if (double(n) * double(per) > double(std::numeric_limits<int>::max()))
+      throw SceneError("calibrate: a generation's tracks (" + std::to_string(n) + " candidates x " + std::to_string(per) +
+                       " values) exceed what MPI gathers in one call (2^31 - 1 values): measure fewer nodes or times");
     auto lo = [&](std::size_t r) { return n * r / R; };
     const std::size_t r = std::size_t(sh.rank);
     const std::vector<Sim> mine =
@@ -386,9 +387,6 @@ struct Evaluator {
         for (const auto& x : track) flat.insert(flat.end(), x.begin(), x.end());
       flat.insert(flat.end(), sim.scalars.begin(), sim.scalars.end());
     }
-    if (double(n) * double(per) > double(std::numeric_limits<int>::max()))
-      throw SceneError("calibrate: a generation's tracks (" + std::to_string(n) + " candidates x " + std::to_string(per) +
-                       " values) exceed what MPI gathers in one call (2^31 - 1 values): measure fewer nodes or times");
     std::vector<int> counts(R);
     for (std::size_t q = 0; q < R; ++q) counts[q] = int((lo(q + 1) - lo(q)) * per);
     const std::vector<double> every = sh.all_gather(flat, counts);
@@ -631,6 +629,21 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   Calibration c;
   c.fit = fit;
   c.data = data;
+  for (const Track& t : data.tracks) c.sigma_given = c.sigma_given || !std::isnan(t.sigma);
+  c.sigma_given = c.sigma_given || !std::isnan(opt.sigma);
+  // (scalars come with their noise; tracks without would weigh 1 m against it)
+  if (!data.scalars.empty() && !data.tracks.empty() && !c.sigma_given)
+    throw SceneError(data.path + ": tracks without their noise cannot be weighed against the scalars' (give --sigma, or "
+                     "a sigma column)");
+  c.sigma_given = c.sigma_given || !data.scalars.empty();
+  for (std::size_t j = 0; j < d; ++j) {
+    // (a prior weighs against the data in units of their noise: with σ
+    // unknown, σ = 1 m would let it outweigh any data in millimetres)
+    if (fit[j].prior() && !c.sigma_given)
+      throw SceneError("--fit " + fit[j].key + ": a prior needs the measurements' noise (--sigma, or a sigma column)");
+    for (std::size_t i = 0; i < j; ++i)
+      if (fit[i].key == fit[j].key) throw SceneError("--fit " + fit[j].key + ": given twice");
+  }
   // (the scene's own observables only where scalars are measured; the
   // tracks' columns named as no scene's can be: # is not a name character)
   Evaluator ev{text, source, data, opt, {}, {}, 0, 0, base.sim.dt_auto, "", 0, {}, false};
@@ -695,21 +708,6 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   }
   c.dt = ev.dt;
   c.duration = ev.duration;
-  for (const Track& t : data.tracks) c.sigma_given = c.sigma_given || !std::isnan(t.sigma);
-  c.sigma_given = c.sigma_given || !std::isnan(opt.sigma);
-  // (scalars come with their noise; tracks without would weigh 1 m against it)
-  if (!data.scalars.empty() && !data.tracks.empty() && !c.sigma_given)
-    throw SceneError(data.path + ": tracks without their noise cannot be weighed against the scalars' (give --sigma, or "
-                     "a sigma column)");
-  c.sigma_given = c.sigma_given || !data.scalars.empty();
-  for (std::size_t j = 0; j < d; ++j) {
-    // (a prior weighs against the data in units of their noise: with σ
-    // unknown, σ = 1 m would let it outweigh any data in millimetres)
-    if (fit[j].prior() && !c.sigma_given)
-      throw SceneError("--fit " + fit[j].key + ": a prior needs the measurements' noise (--sigma, or a sigma column)");
-    for (std::size_t i = 0; i < j; ++i)
-      if (fit[i].key == fit[j].key) throw SceneError("--fit " + fit[j].key + ": given twice");
-  }
 
   auto objective = [&](const Evaluator::Sim& sim, const std::vector<double>& theta, double* data_part) {
     const std::vector<double> r = residuals(sim, data, opt);
@@ -797,7 +795,6 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
   c.fitted = sims[0].tracks;
   c.fitted_scalars = sims[0].scalars;
   const std::vector<double> r0 = residuals(sims[0], data, opt);
-  c.samples = std::int64_t(r0.size());
   Eigen::MatrixXd J(Eigen::Index(r0.size()), Eigen::Index(d));
   for (std::size_t j = 0; j < d; ++j) {
     // (one-sided where a neighbour was refused or failed: an optimum on a bound)
@@ -861,6 +858,31 @@ Calibration calibrate(const std::string& text, const std::string& source, const 
     c.sigma[i] = fit[i].log() ? c.best[i] * c.theta_sigma[i] : c.theta_sigma[i];
   }
   return c;
+}
+
+std::string check_calibration_outputs(const std::string& output, const std::string& csv,
+                                      std::vector<std::string> inputs, const std::string& output_name,
+                                      const std::string& csv_name) {
+  check_h5_output(output, inputs, output_name);
+  inputs.push_back(output);
+  if (!csv.empty()) {
+    check_extension(csv, {".csv"}, csv_name, "the fitted parameters (CSV)");
+    check_not_input(csv, inputs, csv_name);
+    inputs.push_back(csv);
+  }
+  const std::string state = output + ".calibrate-state";
+  check_not_input(state, inputs, "the search's state (beside " + output_name + ")");
+  // (written at the end, after the whole calibration: their folders checked now)
+  for (const std::string& f : {output, csv}) {
+    if (f.empty()) continue;
+    const std::filesystem::path dir =
+        std::filesystem::path(f).parent_path().empty() ? std::filesystem::path(".") : std::filesystem::path(f).parent_path();
+    std::error_code ec;
+    if (!std::filesystem::is_directory(dir, ec))
+      throw SceneError(f + ": the folder " + dir.string() + " does not exist (nothing was run)");
+    if (std::filesystem::is_directory(f, ec)) throw SceneError(f + ": is a folder, not a file (nothing was run)");
+  }
+  return state;
 }
 
 RunResult run_best_fit(const std::string& text, const std::string& source, const Calibration& c,
