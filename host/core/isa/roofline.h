@@ -11,13 +11,25 @@
 
 namespace manyrods::roofline {
 
-// `inner` rounds of 12 independent 64-byte vector accumulators (enough to
-// cover FMA latency × throughput) on each of `threads` threads. Returns
-// the FLOPs done (an FMA counts 2); `sink` keeps the result alive.
+// The widest vector the instruction set compiled for has, in bytes.
+#if defined(__AVX512F__)
+inline constexpr int kVectorBytes = 64;
+#elif defined(__AVX__)
+inline constexpr int kVectorBytes = 32;
+#else
+inline constexpr int kVectorBytes = 16;
+#endif
+
+// `inner` rounds of 12 independent accumulators of the widest vector
+// (enough to cover FMA latency × throughput, and in registers: 12 of the
+// 16 AVX2 or 32 AVX-512 ones; wider vectors than the hardware's would be
+// split, 24 halves spilled to memory, and the "peak" a third of the real
+// one) on each of `threads` threads. Returns the FLOPs done (an FMA counts
+// 2); `sink` keeps the result alive.
 template <class T>
 double fma_burst(int threads, int inner, volatile T* sink) {
-  constexpr int kLanes = 64 / sizeof(T), kAcc = 12;
-  typedef T vec __attribute__((vector_size(64)));
+  constexpr int kLanes = kVectorBytes / sizeof(T), kAcc = 12;
+  typedef T vec __attribute__((vector_size(kVectorBytes)));
   double flops = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : flops)
   {
