@@ -442,6 +442,7 @@ struct Evaluator {
     ro.output = work;
     ro.threads = opt.threads;
     ro.frames = RunOptions::Frames::none;
+    ro.sweep_tables = false;  // (only the probes are read; the file is removed)
     ro.duration = duration;
     ro.interrupt = opt.interrupt;
     const SweepRun r = run_sweep(sw, ro);
