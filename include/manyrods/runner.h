@@ -99,13 +99,6 @@ struct RunOptions {
   std::function<void(const std::string&)> on_warning;
   // Called before the file is closed (the sweep adds /sweep here).
   std::function<void(h5::Writer&, const std::vector<ProbeRecord>&)> before_finish;
-  // A sweep (run_sweep) computes and writes its /sweep tables (summary,
-  // statistics, sensitivity: a column per observable and time, a dataset
-  // each). Off where only RunResult::probes are wanted: a calibration's
-  // candidates, whose observables are its tracks' positions at every
-  // measured time (thousands of columns, most of a generation's time
-  // when written).
-  bool sweep_tables = true;
 };
 
 struct RunResult {

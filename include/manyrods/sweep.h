@@ -159,7 +159,6 @@ std::vector<h5::Column> sweep_sensitivity(const std::vector<h5::Column>& summary
 // rod); opt.probes and opt.before_finish are set here.
 struct SweepRun {
   RunResult run;
-  // summary, statistics and sensitivity: empty with RunOptions::sweep_tables off
   std::vector<h5::Column> parameters, summary, statistics;
   std::vector<h5::Column> sensitivity;  // saltelli designs
 };

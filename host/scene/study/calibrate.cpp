@@ -442,14 +442,18 @@ struct Evaluator {
     ro.output = work;
     ro.threads = opt.threads;
     ro.frames = RunOptions::Frames::none;
-    ro.sweep_tables = false;  // (only the probes are read; the file is removed)
     ro.duration = duration;
     ro.interrupt = opt.interrupt;
-    const SweepRun r = run_sweep(sw, ro);
+    // the sweep's scene and probes run without its /sweep tables (run_sweep
+    // would write a column per track, component and measured time, each a
+    // compressed dataset: most of a generation's time, for a file removed
+    // here; only the probes are read)
+    ro.probes = sw.probes;
+    const RunResult r = run_scene(sw.scene, ro);
     std::error_code ec;
     std::filesystem::remove(work, ec);
     for (std::size_t v = 0; v < points.size(); ++v) {
-      const ProbeRecord& rec = r.run.probes[v];
+      const ProbeRecord& rec = r.probes[v];
       if (!std::isnan(rec.failed_at)) continue;  // (a failed run: NaN)
       const std::vector<double> val = observed_values(rec.observed);
       Sim& sim = out[index[v]];

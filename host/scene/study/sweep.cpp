@@ -395,18 +395,17 @@ SweepRun run_sweep_cached(const Sweep& sw, RunOptions opt, const h5::Checkpoint*
   SweepRun out;
   opt.probes = sw.probes;
   out.parameters = sweep_parameters(sw);
-  if (opt.sweep_tables)
-    opt.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>& rec) {
-      out.summary = sweep_summary(sw, rec);
-      out.statistics = sweep_statistics(out.summary);
-      std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
-      w.write_sweep(out.parameters, out.summary, first, sw.sensitivity_base);
-      w.add_sweep_table("statistics", out.statistics, "statistics", sweep_statistic_names());
-      if (sw.sensitivity_base > 0) {
-        out.sensitivity = sweep_sensitivity(out.summary, sw.sensitivity_base, int(sw.names.size()));
-        w.add_sweep_table("sensitivity", out.sensitivity, "indices", sensitivity_names(sw.names));
-      }
-    };
+  opt.before_finish = [&](h5::Writer& w, const std::vector<ProbeRecord>& rec) {
+    out.summary = sweep_summary(sw, rec);
+    out.statistics = sweep_statistics(out.summary);
+    std::vector<std::int32_t> first(sw.first_rod.begin(), sw.first_rod.end() - 1);
+    w.write_sweep(out.parameters, out.summary, first, sw.sensitivity_base);
+    w.add_sweep_table("statistics", out.statistics, "statistics", sweep_statistic_names());
+    if (sw.sensitivity_base > 0) {
+      out.sensitivity = sweep_sensitivity(out.summary, sw.sensitivity_base, int(sw.names.size()));
+      w.add_sweep_table("sensitivity", out.sensitivity, "indices", sensitivity_names(sw.names));
+    }
+  };
   out.run = run_scene(sw.scene, opt, restart, cache);
   return out;
 }
