@@ -368,13 +368,18 @@ TEST(Properties, PermutingRodsPermutesResultsExplicitViscous) { check_permutatio
 // ---- (d) thread count ----------------------------------------------------------
 
 // state_hash (include/manyrods/batch.h): FNV-1a over every real state entry.
+// `copies` of the mixed rods: 4 make one segment, which two threads share
+// stage by stage (launch blocks, lane groups); 60 make three, the first and
+// last stepped one per thread and the middle one by both threads
+// (host/core/step/schedule.h for_each_segment).
 template <Viscous kV>
-void check_threads() {
+void check_threads(int copies, std::size_t segments) {
   std::vector<RodSpec> specs;
-  for (int copy = 0; copy < 4; ++copy)
+  for (int copy = 0; copy < copies; ++copy)
     for (const RodSpec& s : mixed_rods()) specs.push_back(s);
   RodBatch<double> one = build_batch<double>(specs, {0.3, -9.81, 0.1});
   ASSERT_GT(one.slots(), 4 * kGuard);  // several blocks, so two threads really split the work
+  ASSERT_EQ(one.segments.size(), segments);
   for (int r = 0; r < one.rod_count(); ++r) set_loads(one, r, r);
   RodBatch<double> two = one;
   const std::uint64_t h0 = state_hash(one);
@@ -383,7 +388,7 @@ void check_threads() {
     step<kAllTerms, kV>(two, 1e-6, Exec{2});
   }
   const std::uint64_t h1 = state_hash(one), h2 = state_hash(two);
-  std::printf("  state hash after 200 steps: 1 thread %016llx, 2 threads %016llx\n",
+  std::printf("  %zu segment(s), state hash after 200 steps: 1 thread %016llx, 2 threads %016llx\n", segments,
               static_cast<unsigned long long>(h1), static_cast<unsigned long long>(h2));
   EXPECT_EQ(h1, h2);
   EXPECT_NE(h1, h0);  // the state changed
@@ -392,8 +397,14 @@ void check_threads() {
   EXPECT_NE(state_hash(two), h1);
 }
 
-TEST(Properties, ThreadCountDoesNotChangeResultImplicitViscous) { check_threads<Viscous::implicit>(); }
-TEST(Properties, ThreadCountDoesNotChangeResultExplicitViscous) { check_threads<Viscous::explicit_rate>(); }
+TEST(Properties, ThreadCountDoesNotChangeResultImplicitViscous) {
+  check_threads<Viscous::implicit>(4, 1);
+  check_threads<Viscous::implicit>(60, 3);
+}
+TEST(Properties, ThreadCountDoesNotChangeResultExplicitViscous) {
+  check_threads<Viscous::explicit_rate>(4, 1);
+  check_threads<Viscous::explicit_rate>(60, 3);
+}
 
 // Float steps flush subnormals to zero on every thread of the step
 // (Exec::flush_subnormals, the default); afterwards the calling thread and
