@@ -138,10 +138,11 @@ void count(const char* name) {
     // depend on the lane count), per lane and cell of the rod; it also runs
     // the rod's root ghost cell (1 in 8 here, 1 in 33 for hair)
     constexpr int kW = 8;
-    std::vector<std::vector<F>> lane_arrays(42, std::vector<F>(kW * 8));  // cells + the root ghost cell
+    std::vector<std::vector<F>> lane_arrays(63, std::vector<F>(kW * 8));  // cells + the root ghost cell
     ImplicitScratchView<F> lsc{};
     for (int i = 0; i < 36; ++i) lsc.G[i] = lane_arrays[i].data();
     for (int i = 0; i < 6; ++i) lsc.g[i] = lane_arrays[36 + i].data();
+    for (int i = 0; i < 21; ++i) lsc.L[i] = lane_arrays[42 + i].data();
     int first[kW], cells[kW];
     F stiff_h[kW];
     for (int l = 0; l < kW; ++l) first[l] = b.rods[0].offset + 1, cells[l] = 7, stiff_h[l] = F(0);

@@ -7,7 +7,9 @@
 //   Â_0 = A_0,  Â_c = A_c − U_{c−1}ᵀ G_{c−1},  G_c = Â_c⁻¹ U_c,
 //   ŷ_c = y_c − U_{c−1}ᵀ g_{c−1},  g_c = Â_c⁻¹ ŷ_c,
 //   u_c = g_c − G_c u_{c+1}   (backwards from the last cell),
-// Â_c = L Lᵀ by Cholesky. Lane l solves rod l, whose cells are the slots
+// Â_c = L Lᵀ by Cholesky. This kernel eliminates the same system with
+// Z_c = L⁻¹U_c instead of G_c ("The elimination with Z_c = L⁻¹U_c" below):
+// a third fewer multiply–adds; with kKeep it also leaves G_c. Lane l solves rod l, whose cells are the slots
 // first[l] … first[l] + cells[l] − 1 (rods of different lengths: see
 // viscous_implicit_lanes below). Every value is an array over the lanes
 // ([…][W]) and every stage is one `omp simd` loop over the lanes whose body
@@ -63,10 +65,12 @@
 //
 // reads: model, state geometry and velocities of the W rods
 // writes: node_v, elem_w of their cells, and the elimination scratch:
-//   G[i][c·W + l] (i < 36, row-major 6×6) and g[i][c·W + l] (i < 6) for the
-//   group's cell c of lane l, c ≤ max(cells): 42·W·(max(cells) + 1) values
-//   (the host passes a per-thread buffer at least that long); with kKeep,
-//   the factors (kernels/viscous_implicit.h kKeepValues) into `keep`.
+//   G[i][c·W + l] (Z_c's 27 entries at i = ui; with kKeep, G_c at the end,
+//   row-major 6×6), g[i][c·W + l] (i < 6: z_c, then u_c) and L[i][c·W + l]
+//   (i < 21: Â_c's factor) for the group's cell c of lane l,
+//   c ≤ max(cells): 63·W·(max(cells) + 1) values (the host passes a
+//   per-thread buffer at least that long); with kKeep, the factors
+//   (kernels/viscous_implicit.h kKeepValues) into `keep`.
 #pragma once
 
 #include "kernels/viscous_implicit.h"
@@ -380,8 +384,9 @@ MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P,
   }
 }
 
-// The pieces of the elimination of one cell (eliminate_lane below, and the
-// partitioned solve of kernels/viscous_implicit_partitioned.h).
+// The pieces of the elimination of one cell with G_c = Â_c⁻¹U_c (the
+// partitioned solve of kernels/viscous_implicit_partitioned.h, whose
+// separators reuse G; eliminate_lane below uses Z_c = L⁻¹U_c).
 //
 // Â = A − U_{c−1}ᵀ G_{c−1}, ŷ = y − U_{c−1}ᵀ g_{c−1}, from the previous cell's
 // U and the scratch at `at` (cell c−1, lane l). U_{c−1}ᵀ G_{c−1} is symmetric:
@@ -447,10 +452,10 @@ MANYRODS_HD inline void factor_lane(T (&A)[21]) {
   }
 }
 
-// x = L⁻ᵀ L⁻¹ x with the factor of factor_lane; x's entries above row r0
-// are zero (and stay zero through L⁻¹).
+// x = L⁻¹ x with the factor of factor_lane; x's entries above row r0 are
+// zero (and stay zero).
 template <int r0 = 0, class T>
-MANYRODS_HD inline void solve_lane(const T (&A)[21], T (&x)[6]) {
+MANYRODS_HD inline void forward_lane(const T (&A)[21], T (&x)[6]) {
   MANYRODS_UNROLL_ALL
   for (int i = r0; i < 6; ++i) {
     T v = x[i];
@@ -458,6 +463,11 @@ MANYRODS_HD inline void solve_lane(const T (&A)[21], T (&x)[6]) {
     for (int r = r0; r < i; ++r) v -= A[lt(i, r)] * x[r];
     x[i] = v * A[lt(i, i)];
   }
+}
+
+// x = L⁻ᵀ x.
+template <class T>
+MANYRODS_HD inline void backward_lane(const T (&A)[21], T (&x)[6]) {
   MANYRODS_UNROLL_ALL
   for (int i = 5; i >= 0; --i) {
     T v = x[i];
@@ -465,6 +475,13 @@ MANYRODS_HD inline void solve_lane(const T (&A)[21], T (&x)[6]) {
     for (int r = i + 1; r < 6; ++r) v -= A[lt(r, i)] * x[r];
     x[i] = v * A[lt(i, i)];
   }
+}
+
+// x = L⁻ᵀ L⁻¹ x = Â⁻¹ x (x's entries above row r0 zero).
+template <int r0 = 0, class T>
+MANYRODS_HD inline void solve_lane(const T (&A)[21], T (&x)[6]) {
+  forward_lane<r0>(A, x);
+  backward_lane(A, x);
 }
 
 // G_c = Â⁻¹ U_c column by column into the scratch at `at`; column j of U
@@ -486,24 +503,78 @@ MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell
   }
 }
 
+// The elimination with Z_c = L⁻¹U_c (eliminate_lane): with Â_c = L Lᵀ,
+// Z_c = L⁻¹ U_c and z_c = L⁻¹ ŷ_c,
+//   Â_{c+1} = A_{c+1} − Z_cᵀ Z_c,  ŷ_{c+1} = y_{c+1} − Z_cᵀ z_c,
+//   u_c = L⁻ᵀ (z_c − Z_c u_{c+1}),
+// the same system as G_c = Â_c⁻¹ U_c = L⁻ᵀ Z_c, without the backward solves
+// of G's six columns (126 of the 428 multiply–adds of a cell's elimination).
+// Z_c has U_c's zero block (L⁻¹ is lower triangular and keeps column j's
+// zeros above u_row0(j)): its 27 entries are stored at G[ui(i, j)], the
+// factor at L, z_c at g.
+
+// Â = A − Z_{c−1}ᵀ Z_{c−1} (lower triangle), ŷ = y − Z_{c−1}ᵀ z_{c−1}, from the
+// scratch at `at` (cell c−1, lane l); for j ≤ i, Z's columns i and j share
+// the rows r ≥ u_row0(i).
+template <class T>
+MANYRODS_HD inline void schur_z_lane(int at, const ImplicitScratchView<T>& sc, T (&A)[21], T (&y)[6]) {
+  T Z[27], z[6];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 27; ++i) Z[i] = sc.G[i][at];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 6; ++i) z[i] = sc.g[i][at];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 6; ++i) {
+    MANYRODS_UNROLL_ALL
+    for (int j = 0; j <= i; ++j) {
+      T acc = A[lt(i, j)];
+      MANYRODS_UNROLL_ALL
+      for (int r = u_row0(i); r < 6; ++r) acc -= Z[ui(r, i)] * Z[ui(r, j)];
+      A[lt(i, j)] = acc;
+    }
+    T acc = y[i];
+    MANYRODS_UNROLL_ALL
+    for (int r = u_row0(i); r < 6; ++r) acc -= Z[ui(r, i)] * z[r];
+    y[i] = acc;
+  }
+}
+
+// Z_c = L⁻¹ U_c column by column into the scratch at `at` (its 27 entries).
+template <int W, class T>
+MANYRODS_HD inline void solve_z_lane(int l, int at, const T (&A)[21], const Cell<T, W>& cur,
+                                     const ImplicitScratchView<T>& sc) {
+  MANYRODS_UNROLL_ALL
+  for (int j = 0; j < 6; ++j) {
+    T x[6];
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 6; ++i) x[i] = i < u_row0(j) ? T(0) : cur.U[ui(i, j)][l];
+    if (j < 3)
+      forward_lane<0>(A, x);
+    else
+      forward_lane<3>(A, x);
+    MANYRODS_UNROLL_ALL
+    for (int i = u_row0(j); i < 6; ++i) sc.G[ui(i, j)][at] = x[i];
+  }
+}
+
 // Elimination and factorization of cell c of lane l (after assemble_lane):
-//   Â = A − U_{c−1}ᵀ G_{c−1},  ŷ = y − U_{c−1}ᵀ g_{c−1}  (c > 0),
-// fixed unknowns → identity rows, Â = L Lᵀ, g_c = Â⁻¹ŷ, G_c = Â⁻¹U_c (not for
-// the last cell), stored in the scratch.
+//   Â = A − Z_{c−1}ᵀ Z_{c−1},  ŷ = y − Z_{c−1}ᵀ z_{c−1}  (c > 0),
+// fixed unknowns → identity rows, Â = L Lᵀ, z_c = L⁻¹ŷ, Z_c = L⁻¹U_c (not for
+// the last cell), stored in the scratch with L.
 // kKeep: the factors also kept for more right-hand sides (kernels/
 // viscous_implicit.h kKeepValues: Â_c's factor, U_c, the inverse masses).
 template <bool kFirst, bool kLast, int W, class T, bool kKeep = false, bool kLift = false>
-MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cell<T, W>& cur,
-                                       const ImplicitScratchView<T>& sc, T* const* keep = nullptr) {
+MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& cur, const ImplicitScratchView<T>& sc,
+                                       T* const* keep = nullptr) {
   T A[21], y[6];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 21; ++i) A[i] = cur.A[i][l];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) y[i] = cur.y[i][l];
-  if constexpr (!kFirst) schur_lane(l, (c - 1) * W + l, prev, sc, A, y);
+  if constexpr (!kFirst) schur_z_lane((c - 1) * W + l, sc, A, y);
   fix_lane<W, T, kLift>(l, cur, A, y);
   factor_lane(A);
-  solve_lane(A, y);
+  forward_lane(A, y);
   const int at = c * W + l;
   if constexpr (kKeep) {
     MANYRODS_UNROLL_ALL
@@ -514,29 +585,57 @@ MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& prev, Cel
     for (int i = 0; i < 4; ++i) keep[kKeepMinv + i][at] = cur.minv[i][l];
   }
   MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 21; ++i) sc.L[i][at] = A[i];
+  MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) sc.g[i][at] = y[i];
-  if constexpr (!kLast) solve_u_lane(l, at, A, cur, sc);
+  if constexpr (!kLast) solve_z_lane(l, at, A, cur, sc);
 }
 
-// Back substitution for cell c of lane l: u_c = g_c − G_c u_{c+1}
-// (kLast: u_c = g_c), written over g_c (which it no longer needs).
+// Back substitution for cell c of lane l: u_c = L⁻ᵀ (z_c − Z_c u_{c+1})
+// (kLast: u_c = L⁻ᵀ z_c), written over z_c.
 template <bool kLast, int W, class T>
-MANYRODS_HD inline void back_lane(int l, int c, T (&next)[6][W], const ImplicitScratchView<T>& sc) {
+MANYRODS_HD inline void back_z_lane(int l, int c, T (&next)[6][W], const ImplicitScratchView<T>& sc) {
   const int at = c * W + l;
-  T x[6];
+  T x[6], L[21];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 21; ++i) L[i] = sc.L[i][at];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) {
     T v = sc.g[i][at];
     if constexpr (!kLast) {
       MANYRODS_UNROLL_ALL
-      for (int j = 0; j < 6; ++j) v -= sc.G[6 * i + j][at] * next[j][l];
+      for (int j = 0; j < 6; ++j)
+        if (i >= u_row0(j)) v -= sc.G[ui(i, j)][at] * next[j][l];
     }
     x[i] = v;
   }
+  backward_lane(L, x);
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) {
     sc.g[i][at] = x[i];
     next[i][l] = x[i];
+  }
+}
+
+// kKeep, after the back substitution: G_c = Â_c⁻¹ U_c = L⁻ᵀ Z_c over Z_c
+// in the scratch at `at` (all 36 entries, row-major), for the kept
+// factors' solves (viscous_solve_factored_lanes). The columns are computed
+// as solve_lane computes them from U_c's (forward, then backward).
+template <class T>
+MANYRODS_HD inline void expand_g_lane(int at, const ImplicitScratchView<T>& sc) {
+  T L[21], Z[27];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 21; ++i) L[i] = sc.L[i][at];
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 27; ++i) Z[i] = sc.G[i][at];
+  MANYRODS_UNROLL_ALL
+  for (int j = 0; j < 6; ++j) {
+    T x[6];
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 6; ++i) x[i] = i < u_row0(j) ? T(0) : Z[ui(i, j)];
+    backward_lane(L, x);
+    MANYRODS_UNROLL_ALL
+    for (int i = 0; i < 6; ++i) sc.G[6 * i + j][at] = x[i];
   }
 }
 
@@ -622,8 +721,9 @@ MANYRODS_HD inline void pack_inputs(const ModelView<T>& mv, const ConstStateView
 //      36 arrays and 4 of g's; cell c's inputs are read by cells c and c−1
 //      before cell c's G and g overwrite them);
 //   1. per cell, forwards: assemble (small-rotation path; flagged lanes again
-//      with the general path), eliminate, factor, G_c and g_c;
-//   2. per cell, backwards: u_c over g_c; then unpacked into node_v, elem_w.
+//      with the general path), eliminate, factor; Z_c, z_c and the factor;
+//   2. per cell, backwards: u_c over z_c; then unpacked into node_v, elem_w
+//      (kKeep: and G_c over Z_c, which the contacts' solves reuse).
 //
 // Tc: the precision of the solve (the buffer's), T otherwise: a float batch's
 // stiff rods are solved in double (Tc = double). Their system (M + h D)
@@ -699,26 +799,31 @@ MANYRODS_HD inline void viscous_implicit_lanes(const int* first, const int* cell
     }
     if (c == 0 && c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<true, false, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<true, false, W, Tc, kKeep, kLift>(l, c, cur, scv, keep);
     } else if (c == 0) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<true, true, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<true, true, W, Tc, kKeep, kLift>(l, c, cur, scv, keep);
     } else if (c + 1 < n) {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<false, false, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<false, false, W, Tc, kKeep, kLift>(l, c, cur, scv, keep);
     } else {
       MANYRODS_LANES
-      for (int l = 0; l < W; ++l) eliminate_lane<false, true, W, Tc, kKeep, kLift>(l, c, prev, cur, scv, keep);
+      for (int l = 0; l < W; ++l) eliminate_lane<false, true, W, Tc, kKeep, kLift>(l, c, cur, scv, keep);
     }
   }
   // 2. back substitution, then u⁺ out to the rods (their own cells only)
   Tc next[6][W];
   MANYRODS_LANES
-  for (int l = 0; l < W; ++l) back_lane<true>(l, n - 1, next, scv);
+  for (int l = 0; l < W; ++l) back_z_lane<true>(l, n - 1, next, scv);
   for (int c = n - 2; c >= 0; --c) {
     MANYRODS_LANES
-    for (int l = 0; l < W; ++l) back_lane<false>(l, c, next, scv);
+    for (int l = 0; l < W; ++l) back_z_lane<false>(l, c, next, scv);
   }
+  if constexpr (kKeep)
+    for (int c = 0; c + 1 < n; ++c) {
+      MANYRODS_LANES
+      for (int l = 0; l < W; ++l) expand_g_lane(c * W + l, scv);
+    }
   for (int d = 0; d < 6; ++d) {
     T* const base = d < 3 ? s.node_v[d] : s.elem_w[d - 3];
     T* dst[W];

@@ -338,7 +338,8 @@ std::size_t RodBatch<T>::bytes() const {
 #undef MANYRODS_BYTES_SCRATCH
 #undef MANYRODS_BYTES_LOADS
 #undef MANYRODS_BYTES
-  b += field_bytes(workspace->visc_G) + field_bytes(workspace->visc_g) + field_bytes(workspace->visc_wide);
+  b += field_bytes(workspace->visc_G) + field_bytes(workspace->visc_g) + field_bytes(workspace->visc_L) +
+       field_bytes(workspace->visc_wide);
   return b;
 }
 
@@ -404,6 +405,7 @@ void RodBatch<T>::reserve_implicit_scratch(int threads, int min_cells) {
   const std::size_t n = std::size_t(w.visc_cells) * std::size_t(w.visc_threads);
   for (auto& a : w.visc_G) a.resize(n, T(0));
   for (auto& a : w.visc_g) a.resize(n, T(0));
+  for (auto& a : w.visc_L) a.resize(n, T(0));
   if (sizeof(T) < sizeof(double) && any_stiff_)
     for (auto& a : w.visc_wide) a.resize(n, 0.0);
 }
@@ -415,6 +417,7 @@ ImplicitScratchView<T> RodBatch<T>::implicit_scratch_view(int thread, int cell_o
   ImplicitScratchView<T> v{};
   for (int i = 0; i < 36; ++i) v.G[i] = w.visc_G[i].data() + at;
   for (int i = 0; i < 6; ++i) v.g[i] = w.visc_g[i].data() + at;
+  for (int i = 0; i < 21; ++i) v.L[i] = w.visc_L[i].data() + at;
   return v;
 }
 
@@ -425,6 +428,7 @@ ImplicitScratchView<double> RodBatch<T>::wide_implicit_scratch_view(int thread) 
   ImplicitScratchView<double> v{};
   for (int i = 0; i < 36; ++i) v.G[i] = w.visc_wide[i].data() + at;
   for (int i = 0; i < 6; ++i) v.g[i] = w.visc_wide[36 + i].data() + at;
+  for (int i = 0; i < 21; ++i) v.L[i] = w.visc_wide[42 + i].data() + at;
   return v;
 }
 

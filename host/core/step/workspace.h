@@ -117,10 +117,11 @@ struct StepWorkspace {
   // batch's), allocated on first use only.
   std::array<Array<T>, 36> visc_G;
   std::array<Array<T>, 6> visc_g;
+  std::array<Array<T>, 21> visc_L;  // the lane solve's factors (ImplicitScratchView::L)
   int visc_cells = 0, visc_threads = 0;
   // The same buffer in double, for a float batch's stiff rods (solved in
-  // double: kernels/viscous_implicit_lanes.h); empty otherwise.
-  std::array<Array<double>, 42> visc_wide;
+  // double: kernels/viscous_implicit_lanes.h); empty otherwise: G, g, L.
+  std::array<Array<double>, 63> visc_wide;
   // the partitioned solves of long rods (SolveGroup::parts), one block per rod
   std::vector<T> visc_partition;
   // [kHoldSaved × driven holds] the velocity and clamp angular velocity of
