@@ -1,15 +1,15 @@
 // kernels/viscous_implicit_lanes.h — the backward-Euler Kelvin–Voigt update of
 // kernels/viscous_implicit.h for W rods at once, one rod per SIMD lane.
 //
-// Same system, same elimination as viscous_implicit_rod (read its header for
-// the equations): per rod (M + hD) u⁺ = M u⁻, D block tridiagonal with 6×6
-// blocks over the cells c = 0 … cells−1 (cell c = node c and element c),
-//   Â_0 = A_0,  Â_c = A_c − U_{c−1}ᵀ G_{c−1},  G_c = Â_c⁻¹ U_c,
-//   ŷ_c = y_c − U_{c−1}ᵀ g_{c−1},  g_c = Â_c⁻¹ ŷ_c,
-//   u_c = g_c − G_c u_{c+1}   (backwards from the last cell),
-// Â_c = L Lᵀ by Cholesky. This kernel eliminates the same system with
-// Z_c = L⁻¹U_c instead of G_c ("The elimination with Z_c = L⁻¹U_c" below):
-// a third fewer multiply–adds; with kKeep it also leaves G_c. Lane l solves rod l, whose cells are the slots
+// Same system as viscous_implicit_rod (read its header for the equations):
+// per rod (M + hD) u⁺ = M u⁻, D block tridiagonal with 6×6 blocks over the
+// cells c = 0 … cells−1 (cell c = node c and element c). That kernel
+// eliminates it with G_c = Â_c⁻¹ U_c,
+//   Â_0 = A_0,  Â_c = A_c − U_{c−1}ᵀ G_{c−1},  ŷ_c = y_c − U_{c−1}ᵀ g_{c−1},
+//   g_c = Â_c⁻¹ ŷ_c,  u_c = g_c − G_c u_{c+1}   (backwards from the last cell),
+// Â_c = L Lᵀ by Cholesky; this one with Z_c = L⁻¹ U_c, which needs no
+// backward solves for the columns of U ("The elimination with Z_c = L⁻¹U_c"
+// below; with kKeep it also leaves G_c). Lane l solves rod l, whose cells are the slots
 // first[l] … first[l] + cells[l] − 1 (rods of different lengths: see
 // viscous_implicit_lanes below). Every value is an array over the lanes
 // ([…][W]) and every stage is one `omp simd` loop over the lanes whose body
@@ -20,13 +20,15 @@
 // Where it does less arithmetic than the scalar kernel (exact in exact
 // arithmetic; the results agree to round-off, tests/test_implicit_lanes.cpp):
 //   * A is symmetric: only its lower triangle (21 entries) is assembled,
-//     eliminated and factored; U_{c−1}ᵀG_{c−1} = U_{c−1}ᵀÂ_{c−1}⁻¹U_{c−1} is
-//     symmetric too (lower triangle only).
+//     eliminated and factored; Z_{c−1}ᵀZ_{c−1} is symmetric too (lower
+//     triangle only).
+//   * Z_c = L⁻¹U_c instead of G_c = Â_c⁻¹U_c: no backward solves for U's six
+//     columns (1,014 FLOP per rod and cell against 1,248).
 //   * U_c (rows: cell c's v, ω; columns: cell c+1's v, ω) has a zero block:
 //     v_c does not couple to ω_{c+1} (element k's strain involves ω_k only,
-//     Voronoi k+1 involves no v). Its 27 other entries are stored, the zero
-//     block is skipped in UᵀG, Uᵀg and in the forward solves for G's columns
-//     3–5 (whose first three entries stay zero).
+//     Voronoi k+1 involves no v), and so has Z_c. Their 27 other entries are
+//     stored, the zero block is skipped in ZᵀZ, Zᵀz, Z u and in the forward
+//     solves for Z's columns 3–5 (whose first three entries stay zero).
 //   * The element blocks share one product. With b1 = −Q/l̂, b3 = Q/l̂,
 //     b2 = [a]×/l̂ (a = Q e), ŵ = h C_F τ / l̂ (= h W / l̂²) and P = diag(ŵ) Q:
 //       b3ᵀWb3 h = b1ᵀWb1 h = −b1ᵀWb3 h = QᵀP = N   (A_vv, −U_vv, next A_vv)
@@ -484,9 +486,10 @@ MANYRODS_HD inline void solve_lane(const T (&A)[21], T (&x)[6]) {
   backward_lane(A, x);
 }
 
-// G_c = Â⁻¹ U_c column by column into the scratch at `at`; column j of U
-// (and of L⁻¹U) is zero above row u_row0(j).
-template <int W, class T>
+// U_c's columns through the factor into the scratch at `at` (column j of U,
+// and of L⁻¹U, is zero above row u_row0(j)): kZ, Z_c = L⁻¹U_c, its 27
+// entries at G[ui(i, j)]; otherwise G_c = Â⁻¹U_c, row-major.
+template <bool kZ, int W, class T>
 MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell<T, W>& cur,
                                      const ImplicitScratchView<T>& sc) {
   MANYRODS_UNROLL_ALL
@@ -495,11 +498,12 @@ MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell
     MANYRODS_UNROLL_ALL
     for (int i = 0; i < 6; ++i) x[i] = i < u_row0(j) ? T(0) : cur.U[ui(i, j)][l];
     if (j < 3)
-      solve_lane<0>(A, x);
+      forward_lane<0>(A, x);
     else
-      solve_lane<3>(A, x);
+      forward_lane<3>(A, x);
+    if constexpr (!kZ) backward_lane(A, x);
     MANYRODS_UNROLL_ALL
-    for (int i = 0; i < 6; ++i) sc.G[6 * i + j][at] = x[i];
+    for (int i = kZ ? u_row0(j) : 0; i < 6; ++i) sc.G[kZ ? ui(i, j) : 6 * i + j][at] = x[i];
   }
 }
 
@@ -508,7 +512,9 @@ MANYRODS_HD inline void solve_u_lane(int l, int at, const T (&A)[21], const Cell
 //   Â_{c+1} = A_{c+1} − Z_cᵀ Z_c,  ŷ_{c+1} = y_{c+1} − Z_cᵀ z_c,
 //   u_c = L⁻ᵀ (z_c − Z_c u_{c+1}),
 // the same system as G_c = Â_c⁻¹ U_c = L⁻ᵀ Z_c, without the backward solves
-// of G's six columns (126 of the 428 multiply–adds of a cell's elimination).
+// of G's six columns: 1,014 FLOP per rod and cell against 1,248 (bench/
+// flop_count.cpp), at the price of keeping L for the back substitution
+// (bench/RESULTS.md "The lane solve eliminates with L⁻¹U").
 // Z_c has U_c's zero block (L⁻¹ is lower triangular and keeps column j's
 // zeros above u_row0(j)): its 27 entries are stored at G[ui(i, j)], the
 // factor at L, z_c at g.
@@ -536,24 +542,6 @@ MANYRODS_HD inline void schur_z_lane(int at, const ImplicitScratchView<T>& sc, T
     MANYRODS_UNROLL_ALL
     for (int r = u_row0(i); r < 6; ++r) acc -= Z[ui(r, i)] * z[r];
     y[i] = acc;
-  }
-}
-
-// Z_c = L⁻¹ U_c column by column into the scratch at `at` (its 27 entries).
-template <int W, class T>
-MANYRODS_HD inline void solve_z_lane(int l, int at, const T (&A)[21], const Cell<T, W>& cur,
-                                     const ImplicitScratchView<T>& sc) {
-  MANYRODS_UNROLL_ALL
-  for (int j = 0; j < 6; ++j) {
-    T x[6];
-    MANYRODS_UNROLL_ALL
-    for (int i = 0; i < 6; ++i) x[i] = i < u_row0(j) ? T(0) : cur.U[ui(i, j)][l];
-    if (j < 3)
-      forward_lane<0>(A, x);
-    else
-      forward_lane<3>(A, x);
-    MANYRODS_UNROLL_ALL
-    for (int i = u_row0(j); i < 6; ++i) sc.G[ui(i, j)][at] = x[i];
   }
 }
 
@@ -588,7 +576,7 @@ MANYRODS_HD inline void eliminate_lane(int l, int c, const Cell<T, W>& cur, cons
   for (int i = 0; i < 21; ++i) sc.L[i][at] = A[i];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) sc.g[i][at] = y[i];
-  if constexpr (!kLast) solve_z_lane(l, at, A, cur, sc);
+  if constexpr (!kLast) solve_u_lane<true>(l, at, A, cur, sc);
 }
 
 // Back substitution for cell c of lane l: u_c = L⁻ᵀ (z_c − Z_c u_{c+1})

@@ -113,8 +113,10 @@ MANYRODS_HD inline void border_carry_lane(int l, const Cell<T, W>& cur, const T 
     }
 }
 
-// Interior cell c of lane l (after assemble_lane): the elimination of
-// eliminate_lane (no Schur update at c = 1: L is not eliminated) plus the
+// Interior cell c of lane l (after assemble_lane): the block elimination
+// with G_c = Â⁻¹U_c (schur_lane, solve_u_lane<false>; the one-rod lane
+// kernel uses Z_c = L⁻¹U_c instead, but the bordering needs Â⁻¹; no Schur
+// update at c = 1: L is not eliminated) plus the
 // bordering: H_c = Â⁻¹F_c into the scratch, S_L −= FᵀH, r_L −= Fᵀg,
 // F_{c+1} = −U_cᵀ H_c.
 template <bool kFirst, int W, class T>
@@ -132,7 +134,7 @@ MANYRODS_HD inline void eliminate_border_lane(int l, int c, const Cell<T, W>& pr
   const int at = c * W + l;
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) sc.e.g[i][at] = y[i];
-  solve_u_lane(l, at, A, cur, sc.e);
+  solve_u_lane<false>(l, at, A, cur, sc.e);
   T H[36];
   MANYRODS_UNROLL_ALL
   for (int j = 0; j < 6; ++j) {

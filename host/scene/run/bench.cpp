@@ -106,13 +106,13 @@ BenchResult bench_scene(const Scene& s, const BenchOptions& opt) {
   // counted FLOPs per element-step on the branch-free paths (bench/flop_count.cpp):
   // the elastic step, and with the rod-per-lane implicit solve; contact,
   // fluid and stiff terms are not counted
-  // (a long rod's partitioned solve: 2,355 instead of 1,245)
+  // (a long rod's partitioned solve: 2,358 instead of 1,014)
   r.flops_per_element_step = 657;
   if (batch.choice().kelvin_voigt) {
     double partitioned = 0;  // elements of the rods solved in partitions
     batch.visit([&](const auto& b) { partitioned = double(b.partitioned_elements()); });
     const double share = partitioned / double(std::max<std::int64_t>(1, r.elements));
-    r.flops_per_element_step += 1245 * (1 - share) + 2355 * share;
+    r.flops_per_element_step += 1014 * (1 - share) + 2358 * share;
   }
   if (batch.choice().integrator == Integrator::pefrl) r.flops_per_element_step *= 4;  // four kicks and solves
   if (opt.ceilings) {
