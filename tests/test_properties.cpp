@@ -368,10 +368,10 @@ TEST(Properties, PermutingRodsPermutesResultsExplicitViscous) { check_permutatio
 // ---- (d) thread count ----------------------------------------------------------
 
 // state_hash (include/manyrods/batch.h): FNV-1a over every real state entry.
-// `copies` of the mixed rods: 4 make one segment, which two threads share
-// stage by stage (launch blocks, lane groups); 60 make three, the first and
-// last stepped one per thread and the middle one by both threads
-// (host/core/step/schedule.h for_each_segment).
+// `copies` of the mixed rods: 4 make one segment, stepped on one thread
+// whatever the thread count; 60 make three, the first and last stepped one
+// per thread, then the middle one (host/core/step/schedule.h
+// for_each_segment).
 template <Viscous kV>
 void check_threads(int copies, std::size_t segments) {
   std::vector<RodSpec> specs;

@@ -4,10 +4,9 @@
 // The batch's slots are cut into segments when it is built
 // (include/manyrods/batch.h Segment): runs of whole rods, small enough
 // ("fused", ≤ kSegmentSlots) to stay in L2 while a step runs all its stages
-// on them, or one long rod each. Threads take whole fused segments;
-// segments that are not fused, and a fused one with none to run beside it,
-// are stepped stage by stage with all threads. Each slot is computed by the
-// same instructions whatever the thread count.
+// on them, or one long rod each. Threads take whole fused segments, so each
+// slot is computed by the same instructions whatever the thread count;
+// segments that are not fused are stepped stage by stage with all threads.
 #pragma once
 
 #include <chrono>
@@ -30,14 +29,8 @@ Segment whole(const RodBatch<T>& b) {
 // parallel, every other one at a time (even, then odd: no slot is read while
 // another thread writes it; segments only read their neighbours' root
 // ghost nodes, which never move — a driven root moves node 0 and the clamp
-// frame of its own rods), each on one thread, `thread` being the OpenMP
-// thread number; then the big ones one by one with all threads (thread = 0).
-// A fused segment that has no other of its parity to run beside it (a batch
-// of one or two, or the middle one of three) is stepped as a big one is,
-// with all threads on each stage: a small batch then uses the threads it was
-// given, not one. Either way every slot is computed by the same instructions
-// (launch blocks of 64, the solve's lane groups), so results do not depend
-// on the thread count.
+// frame of its own rods), `thread` being the OpenMP thread number; then
+// the big ones one by one with all threads (thread = 0).
 template <class T, class F>
 void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
   const int n = int(b.segments.size());
@@ -46,15 +39,7 @@ void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
   if (ex.profile) ex.profile->reserve(ex.threads);
   const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's, for every thread (host/core/step/fp_env.h)
   for (int parity = 0; parity < 2; ++parity) {
-    int alone = -1, count = 0;  // the fused segments of this parity: how many, and the one if one
-    for (int i = parity; i < n; i += 2)
-      if (b.segments[i].fused) alone = i, ++count;
-    if (count == 0) continue;
-    if (count == 1 && ex.threads > 1) {
-      run(b.segments[std::size_t(alone)], ex, 0);
-      continue;
-    }
-#pragma omp parallel num_threads(ex.threads) if (ex.threads > 1)
+#pragma omp parallel num_threads(ex.threads) if (ex.threads > 1 && n > 2)
     {
       const RegionFpScope fp(mode);
 #pragma omp for schedule(static, 1)
