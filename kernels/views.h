@@ -66,9 +66,9 @@ struct LoadsView {
 // indexed by cell.
 template <class T>
 struct ImplicitScratchView {
-  T* G[36];  // [36][cells] Â_c⁻¹ U_c, row-major 6×6 (the lane solve without kept factors: L⁻¹U_c at ui)
-  T* g[6];   // [6][cells]  Â_c⁻¹ ŷ_c (the lane solve without kept factors: L⁻¹ŷ_c)
-  T* L[21];  // [21][cells] the lane solve without kept factors: Â_c's Cholesky factor (lower, 1/L_ii on the diagonal)
+  T* G[36];  // [36][cells] Â_c⁻¹ U_c, row-major 6×6 (the lane solve: L⁻¹U_c at ui; with kept factors Â_c⁻¹ U_c after it)
+  T* g[6];   // [6][cells]  Â_c⁻¹ ŷ_c (the lane solve: L⁻¹ŷ_c, then u_c)
+  T* L[21];  // [21][cells] the lane solve: Â_c's Cholesky factor (lower, 1/L_ii on the diagonal)
 };
 
 namespace views_detail {
