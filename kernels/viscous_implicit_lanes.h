@@ -390,6 +390,28 @@ MANYRODS_HD inline void assemble_lane(int l, int c, T h, T stiff_h, T* const* P,
 // partitioned solve of kernels/viscous_implicit_partitioned.h, whose
 // separators reuse G; eliminate_lane below uses Z_c = L⁻¹U_c).
 //
+// The Schur update of one cell from the previous one, for either form:
+//   Â_ij = A_ij − Σ_r P(r, i) R(r, j)  (j ≤ i, lower triangle),
+//   ŷ_i  = y_i  − Σ_r P(r, i) v_r,
+// over the rows r ≥ u_row0(i) where U's (and Z's) column i is nonzero.
+template <class T, class P, class R>
+MANYRODS_HD inline void schur_update(P&& left, R&& right, const T (&v)[6], T (&A)[21], T (&y)[6]) {
+  MANYRODS_UNROLL_ALL
+  for (int i = 0; i < 6; ++i) {
+    MANYRODS_UNROLL_ALL
+    for (int j = 0; j <= i; ++j) {
+      T acc = A[lt(i, j)];
+      MANYRODS_UNROLL_ALL
+      for (int r = u_row0(i); r < 6; ++r) acc -= left(r, i) * right(r, j);
+      A[lt(i, j)] = acc;
+    }
+    T acc = y[i];
+    MANYRODS_UNROLL_ALL
+    for (int r = u_row0(i); r < 6; ++r) acc -= left(r, i) * v[r];
+    y[i] = acc;
+  }
+}
+
 // Â = A − U_{c−1}ᵀ G_{c−1}, ŷ = y − U_{c−1}ᵀ g_{c−1}, from the previous cell's
 // U and the scratch at `at` (cell c−1, lane l). U_{c−1}ᵀ G_{c−1} is symmetric:
 // lower triangle; U's column i is zero above row u_row0(i).
@@ -401,20 +423,8 @@ MANYRODS_HD inline void schur_lane(int l, int at, const Cell<T, W>& prev, const 
   for (int i = 0; i < 36; ++i) Gp[i] = sc.G[i][at];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) gp[i] = sc.g[i][at];
-  MANYRODS_UNROLL_ALL
-  for (int i = 0; i < 6; ++i) {
-    MANYRODS_UNROLL_ALL
-    for (int j = 0; j <= i; ++j) {
-      T acc = A[lt(i, j)];
-      MANYRODS_UNROLL_ALL
-      for (int r = u_row0(i); r < 6; ++r) acc -= prev.U[ui(r, i)][l] * Gp[6 * r + j];
-      A[lt(i, j)] = acc;
-    }
-    T acc = y[i];
-    MANYRODS_UNROLL_ALL
-    for (int r = u_row0(i); r < 6; ++r) acc -= prev.U[ui(r, i)][l] * gp[r];
-    y[i] = acc;
-  }
+  schur_update([&](int r, int i) { return prev.U[ui(r, i)][l]; }, [&](int r, int j) { return Gp[6 * r + j]; }, gp,
+               A, y);
 }
 
 // Fixed unknowns (zero inverse mass): u = 0 (kLift: their prescribed value,
@@ -529,20 +539,8 @@ MANYRODS_HD inline void schur_z_lane(int at, const ImplicitScratchView<T>& sc, T
   for (int i = 0; i < 27; ++i) Z[i] = sc.G[i][at];
   MANYRODS_UNROLL_ALL
   for (int i = 0; i < 6; ++i) z[i] = sc.g[i][at];
-  MANYRODS_UNROLL_ALL
-  for (int i = 0; i < 6; ++i) {
-    MANYRODS_UNROLL_ALL
-    for (int j = 0; j <= i; ++j) {
-      T acc = A[lt(i, j)];
-      MANYRODS_UNROLL_ALL
-      for (int r = u_row0(i); r < 6; ++r) acc -= Z[ui(r, i)] * Z[ui(r, j)];
-      A[lt(i, j)] = acc;
-    }
-    T acc = y[i];
-    MANYRODS_UNROLL_ALL
-    for (int r = u_row0(i); r < 6; ++r) acc -= Z[ui(r, i)] * z[r];
-    y[i] = acc;
-  }
+  auto col = [&](int r, int i) { return Z[ui(r, i)]; };
+  schur_update(col, col, z, A, y);
 }
 
 // Elimination and factorization of cell c of lane l (after assemble_lane):
