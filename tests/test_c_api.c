@@ -538,7 +538,8 @@ static void test_statics_friction(void) {
 }
 
 /* Gravity preload: a rod of 20 cm held out sideways (below its lateral-torsional
- * buckling load) stands as built; a free one has none. */
+ * buckling load) stands as built; a free one has none; a long one standing
+ * up is an unstable equilibrium, refused. */
 static void test_preload(void) {
   enum { N = 16 };
   double line[3 * (N + 1)];
@@ -565,6 +566,14 @@ static void test_preload(void) {
   rod.root = MR_END_FREE;
   CHECK(mr_batch_create(&rod, 1, &s, &b) == MR_ERROR_INPUT && strstr(mr_last_error(), "preload") != NULL,
         "a free rod has no preload: %s", mr_last_error());
+  /* standing up 50 cm from a clamped root: beyond its buckling length under
+   * its own weight (Greenhill's qL^3/EI = 7.837 at about 19 cm), so the
+   * preload's equilibrium is an unstable one, refused */
+  for (int i = 0; i <= N; ++i) line[3 * i] = 0, line[3 * i + 1] = 0, line[3 * i + 2] = 0.5 * i / N;
+  rod.root = MR_END_CLAMPED;
+  rod.first_normal[0] = 1, rod.first_normal[1] = 0, rod.first_normal[2] = 0;
+  CHECK(mr_batch_create(&rod, 1, &s, &b) == MR_ERROR_INPUT && strstr(mr_last_error(), "unstable") != NULL,
+        "a column beyond its buckling length is refused: %s", mr_last_error());
 }
 
 int main(int argc, char** argv) {

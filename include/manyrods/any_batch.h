@@ -94,7 +94,8 @@ class AnyBatch {
   // now stand in equilibrium under the loads as they are now (set loads
   // first). Solved in double precision (a float batch's state is copied
   // into a double one). InputError in preload_failure's words for a rod
-  // with no such rest shape (its rest shape left as it was).
+  // with no such rest shape, or whose rest shape is an unstable
+  // equilibrium (every rest shape left as it was).
   PreloadResult preload();
   // What each hold exerts on its rod now (scene_hold_reactions; double batches).
   std::vector<HoldReaction> hold_reactions() const;

@@ -231,7 +231,9 @@ void copy_rest_shape(const RodBatch<double>& from, RodBatch<T>& b) {
       b.model.vor_rest_curvature[a][k] = T(from.model.vor_rest_curvature[a][k]);
     }
 }
-// A preload without a rest shape, in words (the rod as static_failure names it).
+// A preload without a rest shape, or whose rest shape makes an unstable
+// equilibrium (PreloadResult::unstable), in words (the rod as
+// static_failure names it); "" when neither.
 std::string preload_failure(const PreloadResult& r, const RodBatch<double>& b, const Scene* s = nullptr);
 // hold_reactions<Terms>(b) with the choice's terms.
 std::vector<HoldReaction> scene_hold_reactions(const RodBatch<double>& b, const StepChoice& c);

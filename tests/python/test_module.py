@@ -814,6 +814,34 @@ def test_a_preloaded_rod_stands_as_built_and_preload_again_takes_new_loads():
         manyrods.Batch([free], gravity=[0, -9.81, 0])
 
 
+def test_an_unstable_preload_is_refused_and_leaves_the_rest_shape_as_it_was():
+    # The 30 cm cantilever standing up (along +z, gravity along -z) buckles
+    # under its own weight beyond Greenhill's load, qL^3/EI = 7.837
+    # (g = 2.42 m/s^2 here). At g = 1 it stands: the preload holds it where
+    # it was built. A downward tip load of 0.05 N (Euler's load for a
+    # clamped-free column, pi^2 EI / 4L^2, is 0.023 N) makes the preload's
+    # equilibrium an unstable one: Batch.preload() raises naming the rod and
+    # keeps the rest shape it had (with the load taken off again the column
+    # still stands). At g = 9.81 the build itself refuses it.
+    b = manyrods.Batch([_standing(True)], gravity=[0, 0, -1.0])
+    tip = b.node_range(0).stop - 1
+    b.node_force[2, tip] = -0.05
+    with pytest.raises(ValueError, match=r"rod 0 .*preload: the rod as built is an equilibrium, but an unstable one"):
+        b.preload()
+    b.node_force[2, tip] = 0.0
+    x0 = b.positions().copy()
+    b.step(1e-5, 4000)
+    assert np.abs(b.positions() - x0).max() < 1e-12 * 0.3
+    with pytest.raises(ValueError, match=r"unstable one \(a small disturbance grows e-fold every .* s\)"):
+        manyrods.Batch([_standing(True)], gravity=[0, 0, -9.81])
+
+
+def _standing(preload):
+    rod = cantilever(length=0.3)
+    rod.preload = preload
+    return rod
+
+
 def test_static_solves_that_find_no_equilibrium_raise_naming_the_rod():
     # A rod without holds in gravity is a mechanism under its load: ValueError
     # from Scene.solve_static, Batch.solve_static, or a dict with check=False.

@@ -74,7 +74,161 @@ struct PreloadOutcome {
   int contacts = 0;  // touches carrying load
   int worst_node = -1;
   double residual_force = 0, residual_couple = 0;
+  bool unstable = false;  // the equilibrium found is an unstable one (preload_stability)
+  double growth_rate = 0;  // 1/s: the fastest growth of a perturbation from it, when unstable
 };
+
+// Stability of the equilibrium the preload found (docs/model.md "Gravity
+// preload", Stability). The rod as built, at rest under the loads, is in
+// equilibrium; it is a stable one when the stiffness K = −∂r/∂q (q: the
+// free positions and frame turns, r: the residual of statics.h) is positive
+// definite on the motions the colliders' pushing touches allow. Small
+// motions from it obey M q̈ = −K q, so an eigenvalue ω² < 0 of
+// K φ = ω² M φ is a motion that grows as e^{γt}, γ = √(−ω²).
+//
+// K comes from the residual's central differences (banded_jacobian), its
+// symmetric part (K is symmetric at an equilibrium under conservative
+// loads; the antisymmetric part is the differences' error). Two things keep
+// the differences' error off the soft modes that decide stability:
+// - Shear and stretch are softened for the differences to C'_F =
+//   min(C_F, 100 C_M/l̂²) with V0 moved so that the internal force stays
+//   what it is, C'_F (V − V0') = C_F (V − V0). The geometric stiffness of
+//   that force (what buckles a column under its weight) is kept; the
+//   constraint part shrinks to 100 times the element's bending stiffness,
+//   which still pins the soft modes to their inextensible limit within
+//   about 1 % (K grows with the penalty, so softening can only lower ω²:
+//   the check errs towards "unstable"). The round-off of the differences
+//   scales with C'_F: for a human hair 10⁵ times less.
+// - A touch that pushes (λ > 0) holds its normal motion: leaving the
+//   surface costs the work λ δ at first order, so the second-order check is
+//   on the motions that keep the touch: K + k_c c cᵀ for each touch
+//   (c: its normal at the element's nodes, weights 1 − s, s), k_c a
+//   thousand times the largest diagonal entry of K's positions.
+// Sylvester's law of inertia counts the eigenvalues below −τ as the
+// negative pivots of the banded LDLᵀ of K + τ M (no pivoting; the band of
+// statics.h). τ = 10⁻² ω_ref², ω_ref² = max(|g|/L, C_M/(ρ A L⁴)) (L the
+// rod's length, the smallest bending stiffness and the largest mass per
+// length): instabilities slower than a tenth of the rod's own pendulum or
+// bending rate are not reported, and the differences' error (measured
+// below 10⁻³ ω_ref² on hair and the seed cantilever) is not one. Where
+// the pivots say unstable, a dense symmetric eigensolve (rods of up to
+// kDenseDiagnosis unknowns) confirms it and gives γ.
+template <Terms kT>
+void preload_stability(RodBatch<double>& b, int r, const RodDofs& d, const std::vector<PreloadTouch>& touches,
+                       const Eigen::VectorXd& lambda, std::array<Array<double>, 3>& f, std::array<Array<double>, 3>& c,
+                       PreloadOutcome& out) {
+  const RodInfo& rod = b.rods[std::size_t(r)];
+  const int n = rod.elements, o = rod.offset, m = d.size(), nn = 3 * int(d.node_slots.size());
+  if (m == 0) return;
+  // soften shear and stretch, keeping the internal force; the rod's own
+  // slots only (rods are preloaded in parallel on disjoint blocks)
+  std::vector<double> saved_c(std::size_t(3 * n)), saved_v(std::size_t(3 * n));
+  double length = 0, soft_bend = std::numeric_limits<double>::infinity(), heavy = 0;
+  for (int e = 0; e < n; ++e) {
+    const int k = o + 1 + e;
+    const double l = b.model.elem_rest_length[k];
+    length += l;
+    double cm = 0;
+    for (int a = 0; a < 3; ++a) cm = std::max({cm, b.model.vor_stiffness[a][k], b.model.vor_stiffness[a][k + 1]});
+    for (int a = 0; a < 2; ++a) {
+      const double bend = b.model.vor_stiffness[a][k];
+      if (bend > 0 && (e > 0 || b.model.vor_rest_length[k] > 0)) soft_bend = std::min(soft_bend, bend);
+    }
+    heavy = std::max(heavy, b.model.node_mass[k] / l);
+    const vec3<double> x0{b.state.node_x[0][k], b.state.node_x[1][k], b.state.node_x[2][k]};
+    const vec3<double> x1{b.state.node_x[0][k + 1], b.state.node_x[1][k + 1], b.state.node_x[2][k + 1]};
+    mat3<double> Q;
+    for (int i = 0; i < 9; ++i) Q.m[i] = b.state.elem_Q[i][k];
+    const vec3<double> V = (1 / l) * mul(Q, x1 - x0);
+    for (int a = 0; a < 3; ++a) {
+      double& C = b.model.elem_stiffness[a][k];
+      double& V0 = b.model.elem_rest_strain[a][k];
+      saved_c[std::size_t(3 * e + a)] = C, saved_v[std::size_t(3 * e + a)] = V0;
+      const double soft = 100 * cm / (l * l);
+      if (!(soft > 0 && soft < C)) continue;
+      const double Va = a == 0 ? V.x : a == 1 ? V.y : V.z;
+      V0 = Va - (C / soft) * (Va - V0);
+      C = soft;
+    }
+  }
+  BandedJacobian J;
+  J.plan(d, o);
+  const Segment seg = rod_blocks(rod);
+  banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, ResidualAt{&seg, 1.0, nullptr, r});
+  for (int e = 0; e < n; ++e)
+    for (int a = 0; a < 3; ++a) {
+      b.model.elem_stiffness[a][o + 1 + e] = saved_c[std::size_t(3 * e + a)];
+      b.model.elem_rest_strain[a][o + 1 + e] = saved_v[std::size_t(3 * e + a)];
+    }
+
+  // K = −sym(J) in the band, the touches' penalty, the mass
+  constexpr int w = BandedJacobian::w;
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(m, w + 1);  // K(i, i − j) for j ≤ i: the lower band
+  auto at = [&](int i, int j) -> double& { return i >= j ? K(i, i - j) : K(j, j - i); };
+  for (int i = 0; i < m; ++i)
+    for (int j = std::max(0, i - w); j <= i; ++j) at(i, j) = -0.5 * (J.B(i, j - i + w) + J.B(j, i - j + w));
+  Eigen::VectorXd M(m);
+  double stiffest = 0;
+  for (int u = 0; u < m; ++u) {
+    const int p = J.pos[std::size_t(u)];
+    M[p] = u < nn ? b.model.node_mass[d.node_slots[std::size_t(u / 3)]]
+                  : b.model.elem_inertia[(u - nn) % 3][d.elem_slots[std::size_t((u - nn) / 3)]];
+    if (u < nn) stiffest = std::max(stiffest, std::abs(at(p, p)));
+  }
+  std::vector<int> node_unknown(static_cast<std::size_t>(n + 2), -1);  // a free node's first unknown, by slot − o
+  for (int i = 0; i < nn; i += 3) node_unknown[std::size_t(d.node_slots[std::size_t(i / 3)] - o)] = i;
+  for (std::size_t t = 0; t < touches.size(); ++t) {
+    if (!(lambda[Eigen::Index(t)] > 0)) continue;
+    int idx[6], cnt = 0;
+    double cv[6];
+    for (int side = 0; side < 2; ++side) {
+      const int u = node_unknown[std::size_t(touches[t].node + side - o)];
+      const double weight = side ? touches[t].s : 1 - touches[t].s;
+      if (u < 0 || weight == 0) continue;
+      for (int a = 0; a < 3; ++a) idx[cnt] = J.pos[std::size_t(u + a)], cv[cnt++] = weight * touches[t].n[a];
+    }
+    for (int i = 0; i < cnt; ++i)
+      for (int j = 0; j < cnt; ++j)
+        if (idx[i] >= idx[j]) at(idx[i], idx[j]) += 1e3 * stiffest * cv[i] * cv[j];
+  }
+  const double g = std::sqrt(b.model.gravity[0] * b.model.gravity[0] + b.model.gravity[1] * b.model.gravity[1] +
+                             b.model.gravity[2] * b.model.gravity[2]);
+  double omega_ref2 = g / length;
+  if (std::isfinite(soft_bend) && heavy > 0) omega_ref2 = std::max(omega_ref2, soft_bend / (heavy * std::pow(length, 4)));
+  const double tau = 1e-2 * omega_ref2;
+
+  // LDLᵀ of K + τM in the band: a pivot ≤ 0 is an eigenvalue of
+  // M^-½ K M^-½ below −τ
+  Eigen::MatrixXd L = K;  // L(i, i − j): the factor below the diagonal, D on it
+  for (int i = 0; i < m; ++i) L(i, 0) += tau * M[i];
+  bool negative = false;
+  for (int i = 0; i < m && !negative; ++i) {
+    for (int j = std::max(0, i - w); j < i; ++j) {
+      double v = L(i, i - j);
+      for (int k = std::max(0, i - w); k < j; ++k) v -= L(i, i - k) * L(j, j - k) * L(k, 0);
+      L(i, i - j) = v / L(j, 0);
+    }
+    double dii = L(i, 0);
+    for (int k = std::max(0, i - w); k < i; ++k) dii -= L(i, i - k) * L(i, i - k) * L(k, 0);
+    L(i, 0) = dii;
+    negative = !(dii > 0);
+  }
+  if (!negative) return;
+  if (m > kDenseDiagnosis) {  // too large to confirm: the pivots say so
+    out.unstable = true;
+    out.growth_rate = std::numeric_limits<double>::quiet_NaN();
+    return;
+  }
+  Eigen::MatrixXd A(m, m);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) A(i, j) = std::abs(i - j) <= w ? at(std::max(i, j), std::min(i, j)) / std::sqrt(M[i] * M[j]) : 0.0;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A, Eigen::EigenvaluesOnly);
+  const double lowest = es.eigenvalues()[0];
+  if (lowest < -tau) {
+    out.unstable = true;
+    out.growth_rate = std::sqrt(-lowest);
+  }
+}
 
 template <Terms kT>
 PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<ColliderFrame<double>>& colliders,
@@ -216,15 +370,31 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
         kt.emplace_back(np + na + row, np + i, v);
         kt.emplace_back(np + i, np + na + row, v);
       }
-    Eigen::SparseMatrix<double> K(size, size);
-    K.setFromTriplets(kt.begin(), kt.end());
     Eigen::VectorXd bk = Eigen::VectorXd::Zero(size);
     bk.tail(m) = rhs;
-    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
-    lu.compute(K);
-    if (lu.info() != Eigen::Success) break;
-    const Eigen::VectorXd z = lu.solve(bk);
-    if (lu.info() != Eigen::Success || !z.allFinite()) break;
+    // A rod that its holds leave free to turn as a whole (a pinned root and
+    // a free tip) has equations that no rest strain reaches — the moment of
+    // its loads about the pin — so A loses rank and the saddle-point matrix
+    // is singular. Then it is solved again with −δI on the multipliers'
+    // block (δ = 1e-12 against A's unit rows): the least-squares Δp, which
+    // balances the rod where its loads allow it (a pendulum hanging on its
+    // vertical) and leaves the force the check below reports where they do
+    // not (a pendulum off it).
+    Eigen::VectorXd z;
+    for (const double delta : {0.0, 1e-12}) {
+      if (delta > 0)
+        for (int row = 0; row < m; ++row) kt.emplace_back(np + na + row, np + na + row, -delta);
+      Eigen::SparseMatrix<double> K(size, size);
+      K.setFromTriplets(kt.begin(), kt.end());
+      Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
+      lu.compute(K);
+      if (lu.info() == Eigen::Success) {
+        z = lu.solve(bk);
+        if (lu.info() == Eigen::Success && z.allFinite()) break;
+      }
+      z.resize(0);
+    }
+    if (z.size() == 0) break;
     q = z.head(np);
     lambda.setZero();
     double largest = 0;
@@ -277,6 +447,8 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
   out.ok = solved && r1.allFinite() && out.residual_force <= tol_force && out.residual_couple <= tol_couple;
   if (!out.ok)
     for (int p = 0; p < np; ++p) params[std::size_t(p)].value(b) = before[std::size_t(p)];
+  else
+    preload_stability<kT>(b, r, d, touches, lambda, f, c, out);
   return out;
 }
 
@@ -309,6 +481,10 @@ PreloadResult preload_rest_shape(RodBatch<double>& b, int threads) {
     res.contacts += o.contacts;
     res.residual_force = std::max(res.residual_force, o.residual_force);
     res.residual_couple = std::max(res.residual_couple, o.residual_couple);
+    if (o.unstable) {
+      if (res.unstable++ == 0) res.unstable_rod = r;
+      if (!(o.growth_rate <= res.growth_rate)) res.growth_rate = o.growth_rate;  // (NaN: not measured, kept)
+    }
     if (o.ok || !res.ok) continue;
     res.ok = false;
     res.failed_rod = r;

@@ -190,8 +190,14 @@ StaticResult AnyBatch::solve_static(const StaticOptions& opt) {
 
 PreloadResult AnyBatch::preload() {
   if (!float32()) {
-    const PreloadResult r = scene_preload(f64(), choice_);
-    if (!r.ok) throw InputError(preload_failure(r, f64(), scene_.get()));
+    RodBatch<double>& b = f64();
+    const auto strain = b.model.elem_rest_strain, curvature = b.model.vor_rest_curvature;
+    const PreloadResult r = scene_preload(b, choice_);
+    if (!r.ok || r.unstable) {  // (an unstable rod's rest shape is the preload's: put the old ones back)
+      b.model.elem_rest_strain = strain;
+      b.model.vor_rest_curvature = curvature;
+      throw InputError(preload_failure(r, b, scene_.get()));
+    }
     return r;
   }
   // in double: the scene's batch with this state and these loads
@@ -207,7 +213,7 @@ PreloadResult AnyBatch::preload() {
   }
   d.state.time = b.state.time;
   const PreloadResult r = scene_preload(d, choice_);
-  if (!r.ok) throw InputError(preload_failure(r, d, scene_.get()));
+  if (!r.ok || r.unstable) throw InputError(preload_failure(r, d, scene_.get()));
   copy_rest_shape(d, b);
   return r;
 }

@@ -328,7 +328,7 @@ void give_preload(const Scene& s, const StepChoice& choice, RodBatch<T>& b) {
   if (std::none_of(b.rods.begin(), b.rods.end(), [](const RodInfo& r) { return r.preload; })) return;
   if constexpr (std::is_same_v<T, double>) {
     const PreloadResult r = scene_preload(b, choice);
-    if (!r.ok) throw SceneError(s.source + ": " + preload_failure(r, b, &s));
+    if (!r.ok || r.unstable) throw SceneError(s.source + ": " + preload_failure(r, b, &s));
   } else {
     copy_rest_shape(build_scene_batch<double>(s, false), b);
   }
@@ -452,8 +452,19 @@ PreloadResult scene_preload(RodBatch<double>& b, const StepChoice& c) {
 }
 
 std::string preload_failure(const PreloadResult& r, const RodBatch<double>& b, const Scene* s) {
-  if (r.ok) return "";
+  if (r.ok && r.unstable == 0) return "";
   std::ostringstream os;
+  os.precision(3);
+  if (r.ok) {
+    os << rod_words(b, r.unstable_rod, s) << ": preload: the rod as built is an equilibrium, but an unstable one";
+    if (std::isfinite(r.growth_rate))
+      os << " (a small disturbance grows e-fold every " << 1 / r.growth_rate << " s)";
+    os << ": it would fall away from it, as a real rod would (beyond its buckling load under its own weight, e.g. "
+          "a long hair standing up or held out sideways, or a pre-curved rod free to roll between pins)";
+    if (r.unstable > 1) os << "; " << r.unstable - 1 << " more preloaded rod(s) are unstable too";
+    os << "; model it hanging or resting on a collider, shorten or stiffen it, or set preload = false";
+    return os.str();
+  }
   os.precision(4);
   os << rod_words(b, r.failed_rod, s) << ": preload: no rest shape makes the rod as built its static equilibrium "
      << "(a force of " << r.residual_force << " N at node " << r.failed_node
