@@ -567,7 +567,7 @@ static void test_preload(void) {
   CHECK(mr_batch_create(&rod, 1, &s, &b) == MR_ERROR_INPUT && strstr(mr_last_error(), "preload") != NULL,
         "a free rod has no preload: %s", mr_last_error());
   /* standing up 50 cm from a clamped root: beyond its buckling length under
-   * its own weight (Greenhill's qL^3/EI = 7.837 at about 19 cm), so the
+   * its own weight (Greenhill's qL^3/EI = 7.837 at about 27 cm), so the
    * preload's equilibrium is an unstable one, refused */
   for (int i = 0; i <= N; ++i) line[3 * i] = 0, line[3 * i + 1] = 0, line[3 * i + 2] = 0.5 * i / N;
   rod.root = MR_END_CLAMPED;

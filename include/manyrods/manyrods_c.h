@@ -200,7 +200,9 @@ MR_API mr_status mr_batch_solve_static(mr_batch* b, double time, mr_static_resul
  * as they are now (mr_batch_create did it for the rods as given). `rods`,
  * `contacts` (may be NULL): the rods preloaded and the collider touches that
  * carry load. MR_ERROR_INPUT naming the rod and node where no rest shape
- * does (a free rod in gravity); its rest shape is left as it was. */
+ * does (a free rod in gravity), or naming the rod where the equilibrium it
+ * makes is an unstable one (a long hair standing up); every rest shape is
+ * then left as it was. */
 MR_API mr_status mr_batch_preload(mr_batch* b, int* rods, int* contacts);
 
 typedef struct mr_hold_reaction {

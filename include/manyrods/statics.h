@@ -145,11 +145,11 @@ struct PreloadResult {
   int failed_rod = -1, failed_node = -1;
   // Of the rods in equilibrium, those whose equilibrium is unstable (a
   // small perturbation grows: a hair standing up beyond its buckling load
-  // under its own weight): how many, the first, and the fastest growth
-  // rate γ (1/s: a perturbation grows as e^{γt}; NaN for a rod of more
-  // than 1,500 unknowns, whose growth is not measured). Their rest shapes
-  // are the preload's all the same: what to do is the caller's choice (the
-  // scene, Python and C refuse them).
+  // under its own weight): how many, the one that would fall away fastest
+  // and its growth rate γ (1/s: a perturbation grows as e^{γt}; NaN for a
+  // rod of more than 1,500 unknowns, whose growth is not measured). Their
+  // rest shapes are the preload's all the same: what to do is the caller's
+  // choice (the scene, Python and C refuse them).
   int unstable = 0, unstable_rod = -1;
   double growth_rate = 0;
 };

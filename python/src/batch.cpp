@@ -380,7 +380,8 @@ void bind_batch_dynamics(nb::class_<PyBatch>& c) {
           },
           "Gravity preload again: the rest shapes of the rods with preload solved so that the rods as they are now "
           "stand still under gravity and the loads as they are now (the batch's build did it for the rods as "
-          "built). ValueError naming the rod and node where no rest shape does (a free rod in gravity). Returns "
+          "built). ValueError naming the rod and node where no rest shape does (a free rod in gravity), or the rod "
+          "whose equilibrium would be unstable (beyond its buckling load); the rest shapes then stay as they were. Returns "
           "rods, contacts (collider touches carrying load), residual_force (N), residual_couple (N m)")
       .def(
           "hold_reactions",

@@ -67,7 +67,29 @@ struct PreloadTouch {
   int node = 0;  // slot of the element's first node
   double s = 0;
   Eigen::Vector3d n;
+  int collider = 0;  // which collider
 };
+
+// The gradient ∂n/∂x of collider col's outward normal at the point x of a
+// rod of radius r (the Hessian of the gap: the curvature of the surface
+// the rod's axis stays on): (I − n nᵀ)/ρ about a sphere's centre at
+// distance ρ, the same less the axis direction about a capsule's, zero on
+// a plane. Central differences of collider_touches' normal at x (as a
+// zero-length element), steps of 10⁻³ r (at least 10⁻⁹ m), symmetrized.
+inline Eigen::Matrix3d collider_normal_gradient(const ColliderFrame<double>& col, const vec3<double>& x, double r) {
+  const double h = std::max(1e-3 * r, 1e-9);
+  auto normal = [&](vec3<double> p) {
+    Touch<double> t[3];
+    collider_touches(col, p, p, r, t);
+    return Eigen::Vector3d(t[0].n.x, t[0].n.y, t[0].n.z);
+  };
+  Eigen::Matrix3d G;
+  for (int a = 0; a < 3; ++a) {
+    const vec3<double> e{a == 0 ? h : 0.0, a == 1 ? h : 0.0, a == 2 ? h : 0.0};
+    G.col(a) = (normal(x + e) - normal(x - e)) / (2 * h);
+  }
+  return 0.5 * (G + G.transpose());
+}
 
 struct PreloadOutcome {
   bool ok = true;
@@ -75,8 +97,71 @@ struct PreloadOutcome {
   int worst_node = -1;
   double residual_force = 0, residual_couple = 0;
   bool unstable = false;  // the equilibrium found is an unstable one (preload_stability)
-  double growth_rate = 0;  // 1/s: the fastest growth of a perturbation from it, when unstable
+  double growth_rate = 0;  // 1/s: the fastest growth of a perturbation from it, when unstable (NaN: not measured)
 };
+
+// The residual's banded Jacobian of rod r (unknowns d) at its state, with
+// shear and stretch softened to C'_F = min(C_F, 100 C_M/l̂²) and V0 moved
+// so that the internal force stays (preload_stability, below); the
+// stiffness and rest strains restored however it returns (the rod's own
+// slots only: rods are preloaded in parallel on disjoint blocks). On the
+// way: the rod's length, its smallest bending stiffness, its largest mass
+// per length.
+struct RodScales {
+  double length = 0, soft_bend = std::numeric_limits<double>::infinity(), heavy = 0;
+};
+template <Terms kT>
+void softened_jacobian(RodBatch<double>& b, int r, const RodDofs& d, std::array<Array<double>, 3>& f,
+                       std::array<Array<double>, 3>& c, BandedJacobian& J, RodScales& sc) {
+  const RodInfo& rod = b.rods[std::size_t(r)];
+  const int n = rod.elements, o = rod.offset;
+  struct Restore {
+    RodBatch<double>& b;
+    int o, n;
+    std::vector<double> c, v;
+    ~Restore() {
+      for (int e = 0; e < n; ++e)
+        for (int a = 0; a < 3; ++a) {
+          b.model.elem_stiffness[a][o + 1 + e] = c[std::size_t(3 * e + a)];
+          b.model.elem_rest_strain[a][o + 1 + e] = v[std::size_t(3 * e + a)];
+        }
+    }
+  } restore{b, o, n, std::vector<double>(std::size_t(3 * n)), std::vector<double>(std::size_t(3 * n))};
+  for (int e = 0; e < n; ++e)
+    for (int a = 0; a < 3; ++a) {
+      restore.c[std::size_t(3 * e + a)] = b.model.elem_stiffness[a][o + 1 + e];
+      restore.v[std::size_t(3 * e + a)] = b.model.elem_rest_strain[a][o + 1 + e];
+    }
+  for (int e = 0; e < n; ++e) {
+    const int k = o + 1 + e;
+    const double l = b.model.elem_rest_length[k];
+    sc.length += l;
+    double cm = 0;
+    for (int a = 0; a < 3; ++a) cm = std::max({cm, b.model.vor_stiffness[a][k], b.model.vor_stiffness[a][k + 1]});
+    for (int a = 0; a < 2; ++a) {
+      const double bend = b.model.vor_stiffness[a][k];
+      if (bend > 0 && (e > 0 || b.model.vor_rest_length[k] > 0)) sc.soft_bend = std::min(sc.soft_bend, bend);
+    }
+    sc.heavy = std::max(sc.heavy, b.model.node_mass[k] / l);
+    const vec3<double> x0{b.state.node_x[0][k], b.state.node_x[1][k], b.state.node_x[2][k]};
+    const vec3<double> x1{b.state.node_x[0][k + 1], b.state.node_x[1][k + 1], b.state.node_x[2][k + 1]};
+    mat3<double> Q;
+    for (int i = 0; i < 9; ++i) Q.m[i] = b.state.elem_Q[i][k];
+    const vec3<double> V = (1 / l) * mul(Q, x1 - x0);
+    for (int a = 0; a < 3; ++a) {
+      double& C = b.model.elem_stiffness[a][k];
+      double& V0 = b.model.elem_rest_strain[a][k];
+      const double soft = 100 * cm / (l * l);
+      if (!(soft > 0 && soft < C)) continue;
+      const double Va = a == 0 ? V.x : a == 1 ? V.y : V.z;
+      V0 = Va - (C / soft) * (Va - V0);
+      C = soft;
+    }
+  }
+  J.plan(d, o);
+  const Segment seg = rod_blocks(rod);
+  banded_jacobian<kT>(b, d, f, c, sc.length, 1e-6, J, ResidualAt{&seg, 1.0, nullptr, r});
+}
 
 // Stability of the equilibrium the preload found (docs/model.md "Gravity
 // preload", Stability). The rod as built, at rest under the loads, is in
@@ -102,64 +187,38 @@ struct PreloadOutcome {
 // - A touch that pushes (λ > 0) holds its normal motion: leaving the
 //   surface costs the work λ δ at first order, so the second-order check is
 //   on the motions that keep the touch: K + k_c c cᵀ for each touch
-//   (c: its normal at the element's nodes, weights 1 − s, s), k_c a
-//   thousand times the largest diagonal entry of K's positions.
+//   (c: its normal at the element's nodes, weights 1 − s, s), k_c the
+//   largest diagonal entry of K's positions (as stiff as the softened
+//   stretch, far above the soft modes; larger only loses digits). Along the
+//   surface the touch's force turns with the normal: the Lagrangian's
+//   Hessian adds −λ w_a w_b ∂n/∂x (collider_normal_gradient) to the node
+//   blocks a, b of the element — zero on a plane, destabilizing on a
+//   convex collider (a weight resting on top of a sphere of radius ρ:
+//   ω² = −g/ρ).
 // Sylvester's law of inertia counts the eigenvalues below −τ as the
 // negative pivots of the banded LDLᵀ of K + τ M (no pivoting; the band of
-// statics.h). τ = 10⁻² ω_ref², ω_ref² = max(|g|/L, C_M/(ρ A L⁴)) (L the
-// rod's length, the smallest bending stiffness and the largest mass per
-// length): instabilities slower than a tenth of the rod's own pendulum or
-// bending rate are not reported, and the differences' error (measured
-// below 10⁻³ ω_ref² on hair and the seed cantilever) is not one. Where
+// statics.h). τ = 10⁻² ω_ref², ω_ref² = (|g| + F/m)/L, the rod's pendulum
+// rate under its loads (L its length, m its mass, F the sum of the dead
+// loads on it); for a rod with no loads C_M/(ρ A L⁴) (its smallest bending
+// stiffness and largest mass per length), and with neither 10⁻⁸ of the
+// largest K_ii/M_i. Instabilities slower than a tenth of the rod's own
+// pendulum rate are not reported, and neither is the differences' error
+// on a motion of zero stiffness (measured: −1.4e-5 ω_ref² for a pinned
+// hanging hair turning about the vertical, −5e-6 ω_ref² for a stiff rod,
+// E = 1e11 Pa, pinned on a floor). Where
 // the pivots say unstable, a dense symmetric eigensolve (rods of up to
 // kDenseDiagnosis unknowns) confirms it and gives γ.
 template <Terms kT>
-void preload_stability(RodBatch<double>& b, int r, const RodDofs& d, const std::vector<PreloadTouch>& touches,
-                       const Eigen::VectorXd& lambda, std::array<Array<double>, 3>& f, std::array<Array<double>, 3>& c,
-                       PreloadOutcome& out) {
+void preload_stability(RodBatch<double>& b, int r, const RodDofs& d, const std::vector<ColliderFrame<double>>& colliders,
+                       const std::vector<PreloadTouch>& touches, const Eigen::VectorXd& lambda,
+                       std::array<Array<double>, 3>& f, std::array<Array<double>, 3>& c, PreloadOutcome& out) {
   const RodInfo& rod = b.rods[std::size_t(r)];
   const int n = rod.elements, o = rod.offset, m = d.size(), nn = 3 * int(d.node_slots.size());
   if (m == 0) return;
-  // soften shear and stretch, keeping the internal force; the rod's own
-  // slots only (rods are preloaded in parallel on disjoint blocks)
-  std::vector<double> saved_c(std::size_t(3 * n)), saved_v(std::size_t(3 * n));
-  double length = 0, soft_bend = std::numeric_limits<double>::infinity(), heavy = 0;
-  for (int e = 0; e < n; ++e) {
-    const int k = o + 1 + e;
-    const double l = b.model.elem_rest_length[k];
-    length += l;
-    double cm = 0;
-    for (int a = 0; a < 3; ++a) cm = std::max({cm, b.model.vor_stiffness[a][k], b.model.vor_stiffness[a][k + 1]});
-    for (int a = 0; a < 2; ++a) {
-      const double bend = b.model.vor_stiffness[a][k];
-      if (bend > 0 && (e > 0 || b.model.vor_rest_length[k] > 0)) soft_bend = std::min(soft_bend, bend);
-    }
-    heavy = std::max(heavy, b.model.node_mass[k] / l);
-    const vec3<double> x0{b.state.node_x[0][k], b.state.node_x[1][k], b.state.node_x[2][k]};
-    const vec3<double> x1{b.state.node_x[0][k + 1], b.state.node_x[1][k + 1], b.state.node_x[2][k + 1]};
-    mat3<double> Q;
-    for (int i = 0; i < 9; ++i) Q.m[i] = b.state.elem_Q[i][k];
-    const vec3<double> V = (1 / l) * mul(Q, x1 - x0);
-    for (int a = 0; a < 3; ++a) {
-      double& C = b.model.elem_stiffness[a][k];
-      double& V0 = b.model.elem_rest_strain[a][k];
-      saved_c[std::size_t(3 * e + a)] = C, saved_v[std::size_t(3 * e + a)] = V0;
-      const double soft = 100 * cm / (l * l);
-      if (!(soft > 0 && soft < C)) continue;
-      const double Va = a == 0 ? V.x : a == 1 ? V.y : V.z;
-      V0 = Va - (C / soft) * (Va - V0);
-      C = soft;
-    }
-  }
   BandedJacobian J;
-  J.plan(d, o);
-  const Segment seg = rod_blocks(rod);
-  banded_jacobian<kT>(b, d, f, c, length, 1e-6, J, ResidualAt{&seg, 1.0, nullptr, r});
-  for (int e = 0; e < n; ++e)
-    for (int a = 0; a < 3; ++a) {
-      b.model.elem_stiffness[a][o + 1 + e] = saved_c[std::size_t(3 * e + a)];
-      b.model.elem_rest_strain[a][o + 1 + e] = saved_v[std::size_t(3 * e + a)];
-    }
+  RodScales scales;
+  softened_jacobian<kT>(b, r, d, f, c, J, scales);
+  const double length = scales.length;
 
   // K = −sym(J) in the band, the touches' penalty, the mass
   constexpr int w = BandedJacobian::w;
@@ -175,26 +234,47 @@ void preload_stability(RodBatch<double>& b, int r, const RodDofs& d, const std::
                   : b.model.elem_inertia[(u - nn) % 3][d.elem_slots[std::size_t((u - nn) / 3)]];
     if (u < nn) stiffest = std::max(stiffest, std::abs(at(p, p)));
   }
-  std::vector<int> node_unknown(static_cast<std::size_t>(n + 2), -1);  // a free node's first unknown, by slot − o
+  // a free node's first unknown, by slot − o (a touch at the tip node
+  // names the slot after it, with weight 0)
+  std::vector<int> node_unknown(static_cast<std::size_t>(n + 3), -1);
   for (int i = 0; i < nn; i += 3) node_unknown[std::size_t(d.node_slots[std::size_t(i / 3)] - o)] = i;
   for (std::size_t t = 0; t < touches.size(); ++t) {
-    if (!(lambda[Eigen::Index(t)] > 0)) continue;
+    const double lam = lambda[Eigen::Index(t)];
+    if (!(lam > 0)) continue;
+    const PreloadTouch& tt = touches[t];
     int idx[6], cnt = 0;
-    double cv[6];
+    double cv[6], wv[6];
+    vec3<double> x{0, 0, 0};
     for (int side = 0; side < 2; ++side) {
-      const int u = node_unknown[std::size_t(touches[t].node + side - o)];
-      const double weight = side ? touches[t].s : 1 - touches[t].s;
-      if (u < 0 || weight == 0) continue;
-      for (int a = 0; a < 3; ++a) idx[cnt] = J.pos[std::size_t(u + a)], cv[cnt++] = weight * touches[t].n[a];
+      const double weight = side ? tt.s : 1 - tt.s;
+      const int k = tt.node + side;
+      if (weight == 0) continue;
+      x = x + weight * vec3<double>{b.state.node_x[0][k], b.state.node_x[1][k], b.state.node_x[2][k]};
+      const int u = node_unknown[std::size_t(k - o)];
+      if (u < 0) continue;
+      for (int a = 0; a < 3; ++a) idx[cnt] = J.pos[std::size_t(u + a)], wv[cnt] = weight, cv[cnt++] = weight * tt.n[a];
     }
+    const Eigen::Matrix3d G = collider_normal_gradient(colliders[std::size_t(tt.collider)], x,
+                                                       b.rods[std::size_t(r)].element_radius(std::min(tt.node - o - 1, n - 1)));
     for (int i = 0; i < cnt; ++i)
       for (int j = 0; j < cnt; ++j)
-        if (idx[i] >= idx[j]) at(idx[i], idx[j]) += 1e3 * stiffest * cv[i] * cv[j];
+        if (idx[i] >= idx[j])
+          at(idx[i], idx[j]) += stiffest * cv[i] * cv[j] - lam * wv[i] * wv[j] * G(i % 3, j % 3);
   }
   const double g = std::sqrt(b.model.gravity[0] * b.model.gravity[0] + b.model.gravity[1] * b.model.gravity[1] +
                              b.model.gravity[2] * b.model.gravity[2]);
-  double omega_ref2 = g / length;
-  if (std::isfinite(soft_bend) && heavy > 0) omega_ref2 = std::max(omega_ref2, soft_bend / (heavy * std::pow(length, 4)));
+  double mass = 0, load = 0;  // the rod's mass and dead loads
+  for (int k = o + 1; k <= o + n + 1; ++k) {
+    mass += b.model.node_mass[k];
+    load += std::sqrt(b.loads.node_force[0][k] * b.loads.node_force[0][k] +
+                      b.loads.node_force[1][k] * b.loads.node_force[1][k] +
+                      b.loads.node_force[2][k] * b.loads.node_force[2][k]);
+  }
+  double omega_ref2 = (g + (mass > 0 ? load / mass : 0.0)) / length;
+  if (!(omega_ref2 > 0) && std::isfinite(scales.soft_bend) && scales.heavy > 0)
+    omega_ref2 = scales.soft_bend / (scales.heavy * std::pow(length, 4));
+  if (!(omega_ref2 > 0))  // (neither loads nor bending stiffness: the largest K_ii/M_i)
+    for (int i = 0; i < m; ++i) omega_ref2 = std::max(omega_ref2, 1e-8 * K(i, 0) / M[i]);
   const double tau = 1e-2 * omega_ref2;
 
   // LDLᵀ of K + τM in the band: a pivot ≤ 0 is an eigenvalue of
@@ -307,7 +387,7 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
         // a touch at an end of the element is a node's: the element beside
         // it finds it too (a plane's); one column per node and normal, else
         // the two would make the system singular
-        PreloadTouch pt{k, t[i].s, {t[i].n.x, t[i].n.y, t[i].n.z}};
+        PreloadTouch pt{k, t[i].s, {t[i].n.x, t[i].n.y, t[i].n.z}, int(&col - colliders.data())};
         if (pt.s == 1) pt.node = k + 1, pt.s = 0;
         const bool seen = pt.s == 0 && std::any_of(touches.begin(), touches.end(), [&](const PreloadTouch& u) {
                             return u.node == pt.node && u.s == 0 && (u.n - pt.n).norm() < 1e-12;
@@ -316,7 +396,8 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
       }
     }
   }
-  std::vector<int> node_row(static_cast<std::size_t>(n + 2), -1);  // a free node's first row, by slot − o
+  // a free node's first row, by slot − o (a touch at the tip node names the slot after it, with weight 0)
+  std::vector<int> node_row(static_cast<std::size_t>(n + 3), -1);
   for (int i = 0; i < nn; i += 3) node_row[std::size_t(d.node_slots[std::size_t(i / 3)] - o)] = i;
 
   // scaled: q = W^½ Δp, rows of [J W^-½ | C] to unit norm, C's columns too
@@ -448,7 +529,7 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
   if (!out.ok)
     for (int p = 0; p < np; ++p) params[std::size_t(p)].value(b) = before[std::size_t(p)];
   else
-    preload_stability<kT>(b, r, d, touches, lambda, f, c, out);
+    preload_stability<kT>(b, r, d, colliders, touches, lambda, f, c, out);
   return out;
 }
 
@@ -481,9 +562,11 @@ PreloadResult preload_rest_shape(RodBatch<double>& b, int threads) {
     res.contacts += o.contacts;
     res.residual_force = std::max(res.residual_force, o.residual_force);
     res.residual_couple = std::max(res.residual_couple, o.residual_couple);
-    if (o.unstable) {
-      if (res.unstable++ == 0) res.unstable_rod = r;
-      if (!(o.growth_rate <= res.growth_rate)) res.growth_rate = o.growth_rate;  // (NaN: not measured, kept)
+    if (o.unstable) {  // the fastest measured (NaN: not measured, only until a rate is)
+      const bool faster = res.unstable == 0 || (std::isnan(res.growth_rate) && !std::isnan(o.growth_rate)) ||
+                          o.growth_rate > res.growth_rate;
+      ++res.unstable;
+      if (faster) res.unstable_rod = r, res.growth_rate = o.growth_rate;
     }
     if (o.ok || !res.ok) continue;
     res.ok = false;

@@ -192,10 +192,19 @@ PreloadResult AnyBatch::preload() {
   if (!float32()) {
     RodBatch<double>& b = f64();
     const auto strain = b.model.elem_rest_strain, curvature = b.model.vor_rest_curvature;
-    const PreloadResult r = scene_preload(b, choice_);
-    if (!r.ok || r.unstable) {  // (an unstable rod's rest shape is the preload's: put the old ones back)
+    auto put_back = [&] {
       b.model.elem_rest_strain = strain;
       b.model.vor_rest_curvature = curvature;
+    };
+    PreloadResult r;
+    try {
+      r = scene_preload(b, choice_);
+    } catch (...) {
+      put_back();
+      throw;
+    }
+    if (!r.ok || r.unstable) {  // (an unstable rod's rest shape is the preload's: put the old ones back)
+      put_back();
       throw InputError(preload_failure(r, b, scene_.get()));
     }
     return r;

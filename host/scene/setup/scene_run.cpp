@@ -322,7 +322,8 @@ void copy_static_states(const std::vector<Solved>& solved, const std::vector<std
 // The rest shapes of the groups with preload = true (scene_preload),
 // solved in double precision on the rods as built: a float batch takes
 // them from the scene's batch built in double. SceneError naming the rod,
-// its group and line where none exists.
+// its group and line where none exists or where the equilibrium it makes
+// is unstable.
 template <class T>
 void give_preload(const Scene& s, const StepChoice& choice, RodBatch<T>& b) {
   if (std::none_of(b.rods.begin(), b.rods.end(), [](const RodInfo& r) { return r.preload; })) return;
