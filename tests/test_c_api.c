@@ -574,6 +574,28 @@ static void test_preload(void) {
   rod.first_normal[0] = 1, rod.first_normal[1] = 0, rod.first_normal[2] = 0;
   CHECK(mr_batch_create(&rod, 1, &s, &b) == MR_ERROR_INPUT && strstr(mr_last_error(), "unstable") != NULL,
         "a column beyond its buckling length is refused: %s", mr_last_error());
+  /* 15 cm standing up stands; a downward tip load of 2 N (Euler's load for
+   * the clamped-free column, pi^2 EI / 4L^2, is 0.86 N) makes the
+   * equilibrium unstable: mr_batch_preload refuses it and keeps the rest
+   * shape (with the load taken off again the column still stands) */
+  for (int i = 0; i <= N; ++i) line[3 * i + 2] = 0.15 * i / N;
+  OK(mr_batch_create(&rod, 1, &s, &b));
+  mr_loads_view l;
+  OK(mr_batch_loads_view(b, &l));
+  size_t first;
+  int elements;
+  OK(mr_batch_rod_slots(b, 0, &first, &elements));
+  double* f = (double*)l.node_force;
+  f[2 * l.component_stride + first + N] = -2.0;
+  CHECK(mr_batch_preload(b, NULL, NULL) == MR_ERROR_INPUT && strstr(mr_last_error(), "unstable") != NULL,
+        "mr_batch_preload refuses an unstable equilibrium: %s", mr_last_error());
+  f[2 * l.component_stride + first + N] = 0.0;
+  OK(mr_batch_step(b, 1e-5, 2000));
+  OK(mr_batch_copy_positions_f64(b, x, N + 1));
+  drift = 0;
+  for (int i = 0; i < 3 * (N + 1); ++i) drift = fmax(drift, fabs(x[i] - line[i]));
+  CHECK(drift < 1e-12, "the refused preload kept the rest shape (drift %g m)", drift);
+  mr_batch_destroy(b);
 }
 
 int main(int argc, char** argv) {
