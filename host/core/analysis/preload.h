@@ -63,6 +63,12 @@ struct RestParam {
 
 // A touch of a collider that may carry load: a unit force along n at the
 // element's nodes k and k + 1, shared as (1 − s, s).
+// |g| of the batch (m/s²).
+inline double gravity_magnitude(const RodBatch<double>& b) {
+  return std::sqrt(b.model.gravity[0] * b.model.gravity[0] + b.model.gravity[1] * b.model.gravity[1] +
+                   b.model.gravity[2] * b.model.gravity[2]);
+}
+
 struct PreloadTouch {
   int node = 0;  // slot of the element's first node
   double s = 0;
@@ -207,10 +213,12 @@ void softened_jacobian(RodBatch<double>& b, int r, const RodDofs& d, std::array<
 // hanging hair turning about the vertical, −5e-6 ω_ref² for a stiff rod,
 // E = 1e11 Pa, pinned on a floor). Where
 // the pivots say unstable, a dense symmetric eigensolve (rods of up to
-// kDenseDiagnosis unknowns) confirms it and gives γ.
+// kDenseDiagnosis unknowns) confirms it and gives γ. node_unknown: a free
+// node's first unknown by slot − o, n + 3 long (preload_rod's node_row).
 template <Terms kT>
 void preload_stability(RodBatch<double>& b, int r, const RodDofs& d, const std::vector<ColliderFrame<double>>& colliders,
                        const std::vector<PreloadTouch>& touches, const Eigen::VectorXd& lambda,
+                       const std::vector<int>& node_unknown,
                        std::array<Array<double>, 3>& f, std::array<Array<double>, 3>& c, PreloadOutcome& out) {
   const RodInfo& rod = b.rods[std::size_t(r)];
   const int n = rod.elements, o = rod.offset, m = d.size(), nn = 3 * int(d.node_slots.size());
@@ -234,10 +242,6 @@ void preload_stability(RodBatch<double>& b, int r, const RodDofs& d, const std::
                   : b.model.elem_inertia[(u - nn) % 3][d.elem_slots[std::size_t((u - nn) / 3)]];
     if (u < nn) stiffest = std::max(stiffest, std::abs(at(p, p)));
   }
-  // a free node's first unknown, by slot − o (a touch at the tip node
-  // names the slot after it, with weight 0)
-  std::vector<int> node_unknown(static_cast<std::size_t>(n + 3), -1);
-  for (int i = 0; i < nn; i += 3) node_unknown[std::size_t(d.node_slots[std::size_t(i / 3)] - o)] = i;
   for (std::size_t t = 0; t < touches.size(); ++t) {
     const double lam = lambda[Eigen::Index(t)];
     if (!(lam > 0)) continue;
@@ -261,8 +265,7 @@ void preload_stability(RodBatch<double>& b, int r, const RodDofs& d, const std::
         if (idx[i] >= idx[j])
           at(idx[i], idx[j]) += stiffest * cv[i] * cv[j] - lam * wv[i] * wv[j] * G(i % 3, j % 3);
   }
-  const double g = std::sqrt(b.model.gravity[0] * b.model.gravity[0] + b.model.gravity[1] * b.model.gravity[1] +
-                             b.model.gravity[2] * b.model.gravity[2]);
+  const double g = gravity_magnitude(b);
   double mass = 0, load = 0;  // the rod's mass and dead loads
   for (int k = o + 1; k <= o + n + 1; ++k) {
     mass += b.model.node_mass[k];
@@ -502,8 +505,7 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
   // (a couple's: that times the rod's longest element), to 1e-8; and the
   // round-off of the internal forces, C_F (σ − V0) with σ ≈ e3: a thousand
   // ε C_F (a couple's: that times the longest element, and ε C_M |U0|/D̂).
-  const double g = std::sqrt(b.model.gravity[0] * b.model.gravity[0] + b.model.gravity[1] * b.model.gravity[1] +
-                             b.model.gravity[2] * b.model.gravity[2]);
+  const double g = gravity_magnitude(b);
   double scale[2] = {0, 0}, longest = 0, stiffest[2] = {0, 0};
   for (int i = 0; i < m / 3; ++i) scale[i < nn / 3 ? 0 : 1] = std::max(scale[i < nn / 3 ? 0 : 1], r0.segment(3 * i, 3).norm());
   for (int k = o; k < o + n + 2; ++k) {
@@ -529,7 +531,7 @@ PreloadOutcome preload_rod(RodBatch<double>& b, int r, const std::vector<Collide
   if (!out.ok)
     for (int p = 0; p < np; ++p) params[std::size_t(p)].value(b) = before[std::size_t(p)];
   else
-    preload_stability<kT>(b, r, d, colliders, touches, lambda, f, c, out);
+    preload_stability<kT>(b, r, d, colliders, touches, lambda, node_row, f, c, out);
   return out;
 }
 
