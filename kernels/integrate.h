@@ -81,18 +81,33 @@ MANYRODS_HD inline void kinematic_element(int k, T h, const StateView<T>& s) {
   store_frame(s.elem_Q, k, mul(r, load_frame(s.elem_Q, k)));
 }
 
+// Whether element k turns by more than ½ rad in a drift of length h (the
+// bound of the branch-free path below).
+template <class T>
+MANYRODS_HD inline bool element_turn_is_large(int k, T h, const StateView<T>& s) {
+  const vec3<T> w = (-h) * load3(s.elem_w, k);
+  return !(dot(w, w) <= T(kSmallRotation2));
+}
+
 // The branch-free drift for |hω| ≤ ½ rad. For a larger turn it leaves Q
 // unchanged (a select, so the loop still vectorizes) and returns true: the
-// launcher then redoes element k with kinematic_element.
-template <class T>
+// launcher then redoes element k with kinematic_element. kSelect = false:
+// the caller knows no turn is large (element_turn_is_large), and Q is
+// stored without the select (the same values).
+template <bool kSelect = true, class T>
 MANYRODS_HD inline bool kinematic_element_small(int k, T h, const StateView<T>& s) {
   const vec3<T> w = (-h) * load3(s.elem_w, k);
   const mat3<T> q = load_frame(s.elem_Q, k);
   const mat3<T> n = mul(rotation_exp_small(w), q);
-  const bool big = !(dot(w, w) <= T(kSmallRotation2));
-  MANYRODS_UNROLL
-  for (int i = 0; i < 9; ++i) s.elem_Q[i][k] = big ? q.m[i] : n.m[i];
-  return big;
+  if constexpr (!kSelect) {
+    store_frame(s.elem_Q, k, n);
+    return false;
+  } else {
+    const bool big = element_turn_is_large(k, h, s);
+    MANYRODS_UNROLL
+    for (int i = 0; i < 9; ++i) s.elem_Q[i][k] = big ? q.m[i] : n.m[i];
+    return big;
+  }
 }
 
 template <Terms kT, class T>

@@ -29,14 +29,14 @@ __attribute__((always_inline)) inline void launch_block(int k0, F kernel) {
 #pragma omp simd
   for (int i = 0; i < kGuard; ++i) kernel(k0 + i);
 }
-}  // namespace detail
 
-// Runs kernel(k) for k in [begin, end) (multiples of kGuard).
+// Runs block(k0) for the blocks of [begin, end) (multiples of kGuard): in
+// order on one thread, or shared out statically over ex.threads.
 template <class F>
-inline void launch(int begin, int end, const Exec& ex, F&& kernel) {
+inline void for_each_block(int begin, int end, const Exec& ex, F&& block) {
   const int b0 = begin / kGuard, b1 = end / kGuard;
   if (ex.threads <= 1 || b1 - b0 < 2) {
-    for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
+    for (int b = b0; b < b1; ++b) block(b * kGuard);
     return;
   }
   const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
@@ -44,8 +44,15 @@ inline void launch(int begin, int end, const Exec& ex, F&& kernel) {
   {
     const RegionFpScope fp(mode);
 #pragma omp for schedule(static)
-    for (int b = b0; b < b1; ++b) detail::launch_block(b * kGuard, kernel);
+    for (int b = b0; b < b1; ++b) block(b * kGuard);
   }
+}
+}  // namespace detail
+
+// Runs kernel(k) for k in [begin, end) (multiples of kGuard).
+template <class F>
+inline void launch(int begin, int end, const Exec& ex, F&& kernel) {
+  detail::for_each_block(begin, end, ex, [&](int k0) MANYRODS_KERNEL_LAMBDA { detail::launch_block(k0, kernel); });
 }
 
 template <class F>
@@ -79,18 +86,39 @@ __attribute__((always_inline)) inline void fallback_block(int k0, int* flags, Fa
 template <class Fast, class Exact>
 inline void launch_with_fallback(int begin, int end, const Exec& ex, int* flags, Fast&& fast,
                                  Exact&& exact) {
-  const int b0 = begin / kGuard, b1 = end / kGuard;
-  if (ex.threads <= 1 || b1 - b0 < 2) {
-    for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
-    return;
-  }
-  const RegionFpMode mode = RegionFpMode::of_caller();
-#pragma omp parallel num_threads(ex.threads)
-  {
-    const RegionFpScope fp(mode);
-#pragma omp for schedule(static)
-    for (int b = b0; b < b1; ++b) detail::fallback_block(b * kGuard, flags, fast, exact);
-  }
+  detail::for_each_block(begin, end, ex, [&](int k0) MANYRODS_KERNEL_LAMBDA { detail::fallback_block(k0, flags, fast, exact); });
+}
+
+// launch_with_fallback for a fast kernel whose results are selects
+// (`invalid ? old : new`): GCC turns such a select into a masked store, and
+// masked stores are slow on some CPUs (AMD Zen 3: the drift ran 1.7× slower
+// in double and 2.9× in float, bench/RESULTS.md). Each block first asks
+// `screen(k)` (true exactly where fast(k) would return true) for all its
+// indices; a block where none is true runs `plain` (the fast kernel with
+// plain stores, the same values), any other block runs as
+// launch_with_fallback's. Same results bit for bit.
+namespace detail {
+// One block of launch_screened (the kernels by value, as fallback_block's).
+template <class Screen, class Plain, class Fast, class Exact>
+__attribute__((always_inline)) inline void screened_block(int k0, int* flags, Screen screen, Plain plain, Fast fast,
+                                                          Exact exact) {
+#pragma omp simd
+  for (int i = 0; i < kGuard; ++i) flags[k0 + i] = screen(k0 + i) ? 1 : 0;
+  int any = 0;
+  for (int i = 0; i < kGuard; ++i) any |= flags[k0 + i];
+  if (any)
+    fallback_block(k0, flags, fast, exact);
+  else
+    launch_block(k0, plain);
+}
+}  // namespace detail
+
+template <class Screen, class Plain, class Fast, class Exact>
+inline void launch_screened(int begin, int end, const Exec& ex, int* flags, Screen&& screen, Plain&& plain,
+                            Fast&& fast, Exact&& exact) {
+  detail::for_each_block(begin, end, ex, [&](int k0) MANYRODS_KERNEL_LAMBDA {
+    detail::screened_block(k0, flags, screen, plain, fast, exact);
+  });
 }
 
 }  // namespace manyrods

@@ -44,13 +44,19 @@ void compute_resultants(RodBatch<T>& b, const Exec& ex, const Segment& r, T bend
 }
 
 // Drift: x += h v, Q ← exp(−h ω) Q (kinematic_node, kinematic_element_small;
-// elements that turn by more than ½ rad are redone by kinematic_element).
+// elements that turn by more than ½ rad are redone by kinematic_element; a
+// block where none does stores without selects, element_turn_is_large).
 // reads: state  writes: state.node_x, node_xc, elem_Q
 template <class T>
 void drift(RodBatch<T>& b, T h, const Exec& ex, const Segment& r) {
   const StateView<T> s = b.state_view();
-  launch_with_fallback(
+  launch_screened(
       r.begin, r.end, ex, b.workspace->flags.data(),
+      [&](int k) MANYRODS_KERNEL_LAMBDA { return element_turn_is_large(k, h, s); },
+      [&](int k) MANYRODS_KERNEL_LAMBDA {
+        kinematic_node(k, h, s);
+        kinematic_element_small<false>(k, h, s);
+      },
       [&](int k) MANYRODS_KERNEL_LAMBDA {
         kinematic_node(k, h, s);
         return kinematic_element_small(k, h, s);
