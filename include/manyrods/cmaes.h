@@ -37,7 +37,8 @@ class CmaEsOptimizer {
   int population() const;
   // The strategy's parameters (for checks against other implementations).
   struct Parameters {
-    std::vector<double> weights;  // w_1 … w_μ
+    std::vector<double> weights;           // w_1 … w_μ (positive: the mean's recombination)
+    std::vector<double> negative_weights;  // w_{μ+1} … w_λ (≤ 0: the active covariance update)
     double mueff = 0, cs = 0, damps = 0, cc = 0, c1 = 0, cmu = 0;
   };
   Parameters parameters() const;

@@ -32,10 +32,11 @@ void bind_cmaes(nb::module_& m) {
             const CmaEsOptimizer::Parameters p = es.parameters();
             nb::dict d;
             d["weights"] = p.weights;
+            d["negative_weights"] = p.negative_weights;
             d["mueff"] = p.mueff, d["cs"] = p.cs, d["damps"] = p.damps, d["cc"] = p.cc, d["c1"] = p.c1, d["cmu"] = p.cmu;
             return d;
           },
-          "The strategy's parameters: weights, mueff, cs, damps, cc, c1, cmu");
+          "The strategy's parameters: weights, negative_weights, mueff, cs, damps, cc, c1, cmu");
 }
 
 }  // namespace manyrods_python

@@ -49,7 +49,7 @@ int CmaEsOptimizer::population() const { return impl_->es.lambda(); }
 
 CmaEsOptimizer::Parameters CmaEsOptimizer::parameters() const {
   const CmaEs::Parameters p = impl_->es.parameters();
-  return {p.weights, p.mueff, p.cs, p.ds, p.cc, p.c1, p.cmu};
+  return {p.weights, p.negative_weights, p.mueff, p.cs, p.ds, p.cc, p.c1, p.cmu};
 }
 
 }  // namespace manyrods::scene

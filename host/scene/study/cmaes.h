@@ -1,26 +1,35 @@
 // host/scene/study/cmaes.h — the CMA evolution strategy, (μ/μ_w, λ) with
-// rank-one and rank-μ updates and cumulative step-size adaptation, after
-// Hansen (2016), "The CMA Evolution Strategy: A Tutorial" (arXiv:1604.00772),
-// its default parameters (Table 1):
-//   λ = 4 + ⌊3 ln n⌋, μ = ⌊λ/2⌋, w_i ∝ ln((λ+1)/2) − ln i (i ≤ μ), μ_eff = 1/Σw²
+// rank-one and active rank-μ updates and cumulative step-size adaptation,
+// after Hansen (2016), "The CMA Evolution Strategy: A Tutorial"
+// (arXiv:1604.00772), its default parameters (Table 1, α_cov = 2):
+//   λ = 4 + ⌊3 ln n⌋, μ = ⌊λ/2⌋, w'_i = ln((λ+1)/2) − ln i (i = 1 … λ)
+//   μ_eff = (Σ_{i≤μ} w'_i)²/Σ_{i≤μ} w'_i², μ⁻_eff the same over i > μ
 //   c_σ = (μ_eff + 2)/(n + μ_eff + 5), d_σ = 1 + 2 max(0, √((μ_eff−1)/(n+1)) − 1) + c_σ
 //   c_c = (4 + μ_eff/n)/(n + 4 + 2μ_eff/n), c_1 = 2/((n + 1.3)² + μ_eff)
 //   c_μ = min(1 − c_1, 2(μ_eff − 2 + 1/μ_eff)/((n + 2)² + μ_eff))
-// Generation: y_k = B D z_k (z ~ N(0, I), C = B D² Bᵀ), x_k = m + σ y_k; then
-//   m ← m + σ y_w, y_w = Σ w_i y_{i:λ} (the μ best)
+//   w_i = w'_i/Σ_{j≤μ} w'_j (i ≤ μ: positive, sum 1), and for i > μ (negative)
+//   w_i = min(1 + c_1/c_μ, 1 + 2μ⁻_eff/(μ_eff + 2), (1 − c_1 − c_μ)/(n c_μ)) w'_i/Σ_{j>μ}|w'_j|
+// Generation: y_k = B D z_k (z ~ N(0, I), C = B D² Bᵀ), x_k = m + σ y_k; then,
+// with y_{i:λ} the steps ranked by objective,
+//   m ← m + σ y_w, y_w = Σ_{i≤μ} w_i y_{i:λ} (the μ best)
 //   p_σ ← (1 − c_σ) p_σ + √(c_σ(2 − c_σ)μ_eff) C^{−½} y_w
 //   h_σ = [|p_σ|/√(1 − (1 − c_σ)^{2(g+1)}) < (1.4 + 2/(n+1)) E|N(0,I)|]
 //   p_c ← (1 − c_c) p_c + h_σ √(c_c(2 − c_c)μ_eff) y_w
-//   C ← (1 − c_1 − c_μ) C + c_1 (p_c p_cᵀ + (1 − h_σ) c_c(2 − c_c) C) + c_μ Σ w_i y_i y_iᵀ
+//   C ← (1 + c_1 δ − c_1 − c_μ Σ_i w_i) C + c_1 p_c p_cᵀ + c_μ Σ_{i≤λ} w°_i y_{i:λ} y_{i:λ}ᵀ
+//       δ = (1 − h_σ) c_c(2 − c_c), w°_i = w_i (i ≤ μ), w_i n/|C^{−½} y_{i:λ}|² (i > μ)
 //   σ ← σ exp((c_σ/d_σ)(|p_σ|/E|N(0,I)| − 1))
-// The normal numbers come from manyrods/rng.h through the normal quantile
-// (the same on every platform); ties in the ranking keep the candidates'
-// order (a stable sort), so a run is reproducible for a seed. Recombination
-// uses positive weights only (the tutorial's active, negative weights are
-// left out); a failed candidate (objective not finite; NaN ranks as +inf)
-// among the μ best gets no weight, the others' renormalised (and μ_eff the
-// paths use with them), and a generation in which every candidate failed
-// changes nothing (the next one draws afresh).
+// The negative weights (the "active" update) shrink C along the worst
+// candidates' steps; their sum is capped so that C stays positive definite
+// (the third bound), and w°'s normalisation keeps a long unlucky step from
+// dominating. The normal numbers come from manyrods/rng.h through the normal
+// quantile (the same on every platform); ties in the ranking keep the
+// candidates' order (a stable sort), so a run is reproducible for a seed. A
+// failed candidate (objective not finite; NaN ranks as +inf) gets no
+// weight, positive or negative: among the μ best, the others' positive
+// weights are renormalised (and μ_eff the paths use with them); among the
+// rest its negative weight is dropped (the others' are not scaled up). A
+// generation in which every candidate failed changes nothing (the next one
+// draws afresh).
 //
 // save/restore write and read the whole state as text (hexadecimal
 // floating point: exact), so that a search stopped after a generation and
@@ -54,9 +63,9 @@ class CmaEs {
         sigma_(sigma), rng_{seed} {
     m_ = Eigen::Map<const Eigen::VectorXd>(mean.data(), n);
     mu_ = lambda_ / 2;
-    w_.resize(mu_);
-    for (int i = 0; i < mu_; ++i) w_[i] = std::log((lambda_ + 1) / 2.0) - std::log(double(i + 1));
-    w_ /= w_.sum();
+    Eigen::VectorXd raw(lambda_);
+    for (int i = 0; i < lambda_; ++i) raw[i] = std::log((lambda_ + 1) / 2.0) - std::log(double(i + 1));
+    w_ = raw.head(mu_) / raw.head(mu_).sum();
     mueff_ = 1 / w_.squaredNorm();
     const double nd = n;
     cs_ = (mueff_ + 2) / (nd + mueff_ + 5);
@@ -65,6 +74,15 @@ class CmaEs {
     c1_ = 2 / ((nd + 1.3) * (nd + 1.3) + mueff_);
     cmu_ = std::min(1 - c1_, 2 * (mueff_ - 2 + 1 / mueff_) / ((nd + 2) * (nd + 2) + mueff_));
     chin_ = std::sqrt(nd) * (1 - 1 / (4 * nd) + 1 / (21 * nd * nd));
+    // the negative weights of the ranks after μ (a zero one in the middle where λ is odd)
+    wneg_ = Eigen::VectorXd::Zero(lambda_ - mu_);
+    const Eigen::VectorXd tail = raw.tail(lambda_ - mu_);
+    const double tail_sum = -tail.sum();
+    if (tail_sum > 0 && cmu_ > 0) {
+      const double mueff_minus = tail.sum() * tail.sum() / tail.squaredNorm();
+      const double cap = std::min({1 + c1_ / cmu_, 1 + 2 * mueff_minus / (mueff_ + 2), (1 - c1_ - cmu_) / (nd * cmu_)});
+      if (cap > 0) wneg_ = cap * tail / tail_sum;
+    }
     C_ = Eigen::MatrixXd::Identity(n, n);
     B_ = C_, D_ = Eigen::VectorXd::Ones(n);
     ps_ = pc_ = Eigen::VectorXd::Zero(n);
@@ -73,11 +91,13 @@ class CmaEs {
   // The strategy's parameters (the formulas above), for checks against
   // other implementations.
   struct Parameters {
-    std::vector<double> weights;  // w_1 … w_μ
+    std::vector<double> weights;           // w_1 … w_μ
+    std::vector<double> negative_weights;  // w_{μ+1} … w_λ
     double mueff, cs, ds, cc, c1, cmu;
   };
   Parameters parameters() const {
-    return {std::vector<double>(w_.data(), w_.data() + mu_), mueff_, cs_, ds_, cc_, c1_, cmu_};
+    return {std::vector<double>(w_.data(), w_.data() + mu_), std::vector<double>(wneg_.data(), wneg_.data() + wneg_.size()),
+            mueff_, cs_, ds_, cc_, c1_, cmu_};
   }
 
   int lambda() const { return lambda_; }
@@ -196,11 +216,24 @@ class CmaEs {
     const bool hs = hs_norm < (1.4 + 2 / (n_ + 1.0)) * chin_;
     pc_ = (1 - cc_) * pc_ + (hs ? std::sqrt(cc_ * (2 - cc_) * mueff) : 0.0) * yw;
     Eigen::MatrixXd rank_mu = Eigen::MatrixXd::Zero(n_, n_);
+    double wsum = 0;  // Σ w_i over the weights used, positive and negative
     for (int i = 0; i < mu_; ++i) {
       const Eigen::VectorXd& y = y_[std::size_t(order[std::size_t(i)])];
       rank_mu += w[i] * y * y.transpose();
+      wsum += w[i];
     }
-    C_ = (1 - c1_ - cmu_) * C_ + c1_ * (pc_ * pc_.transpose() + (hs ? 0.0 : cc_ * (2 - cc_)) * C_) + cmu_ * rank_mu;
+    for (int i = mu_; i < lambda_; ++i) {  // the active part
+      const int k = order[std::size_t(i)];
+      const double wi = wneg_[i - mu_];
+      if (wi == 0 || !std::isfinite(f[std::size_t(k)])) continue;
+      const Eigen::VectorXd& y = y_[std::size_t(k)];
+      const double len2 = (Cinvsqrt * y).squaredNorm();
+      if (!(len2 > 0)) continue;
+      rank_mu += (wi * n_ / len2) * y * y.transpose();
+      wsum += wi;
+    }
+    C_ = (1 - c1_ - cmu_ * wsum) * C_ + c1_ * (pc_ * pc_.transpose() + (hs ? 0.0 : cc_ * (2 - cc_)) * C_) +
+         cmu_ * rank_mu;
     sigma_ *= std::exp((cs_ / ds_) * (ps_.norm() / chin_ - 1));
     // (symmetrised against round-off)
     C_ = 0.5 * (C_ + C_.transpose());
@@ -218,7 +251,7 @@ class CmaEs {
   int n_, lambda_, mu_ = 0, gen_ = 0;
   double sigma_, mueff_ = 0, cs_ = 0, ds_ = 0, cc_ = 0, c1_ = 0, cmu_ = 0, chin_ = 0;
   Rng rng_;
-  Eigen::VectorXd m_, w_, ps_, pc_, D_;
+  Eigen::VectorXd m_, w_, wneg_, ps_, pc_, D_;
   Eigen::MatrixXd C_, B_;
   std::vector<Eigen::VectorXd> y_;
 };
