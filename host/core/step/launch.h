@@ -66,17 +66,23 @@ inline void launch(int slots, const Exec& ex, F&& kernel) {
 // is the same whatever the thread count.
 namespace detail {
 
-// One block of launch_with_fallback. The kernels are taken by value: copies
-// that live in registers, which no store in the loop can alias (through a
-// captured reference the compiler must reload them, and the loop stays
-// scalar).
-template <class Fast, class Exact>
-__attribute__((always_inline)) inline void fallback_block(int k0, int* flags, Fast fast, Exact exact) {
+// flags[k0 + i] ← pred(k0 + i) over the block, in one SIMD loop; whether
+// any is set. The kernels here are taken by value: copies that live in
+// registers, which no store in the loop can alias (through a captured
+// reference the compiler must reload them, and the loop stays scalar).
+template <class Pred>
+__attribute__((always_inline)) inline bool flag_block(int k0, int* flags, Pred pred) {
 #pragma omp simd
-  for (int i = 0; i < kGuard; ++i) flags[k0 + i] = fast(k0 + i) ? 1 : 0;
+  for (int i = 0; i < kGuard; ++i) flags[k0 + i] = pred(k0 + i) ? 1 : 0;
   int any = 0;
   for (int i = 0; i < kGuard; ++i) any |= flags[k0 + i];
-  if (any)
+  return any != 0;
+}
+
+// One block of launch_with_fallback.
+template <class Fast, class Exact>
+__attribute__((always_inline)) inline void fallback_block(int k0, int* flags, Fast fast, Exact exact) {
+  if (flag_block(k0, flags, fast))
     for (int i = 0; i < kGuard; ++i)
       if (flags[k0 + i]) exact(k0 + i);
 }
@@ -98,15 +104,11 @@ inline void launch_with_fallback(int begin, int end, const Exec& ex, int* flags,
 // plain stores, the same values), any other block runs as
 // launch_with_fallback's. Same results bit for bit.
 namespace detail {
-// One block of launch_screened (the kernels by value, as fallback_block's).
+// One block of launch_screened.
 template <class Screen, class Plain, class Fast, class Exact>
 __attribute__((always_inline)) inline void screened_block(int k0, int* flags, Screen screen, Plain plain, Fast fast,
                                                           Exact exact) {
-#pragma omp simd
-  for (int i = 0; i < kGuard; ++i) flags[k0 + i] = screen(k0 + i) ? 1 : 0;
-  int any = 0;
-  for (int i = 0; i < kGuard; ++i) any |= flags[k0 + i];
-  if (any)
+  if (flag_block(k0, flags, screen))
     fallback_block(k0, flags, fast, exact);
   else
     launch_block(k0, plain);
