@@ -61,14 +61,14 @@ struct RestParam {
   }
 };
 
-// A touch of a collider that may carry load: a unit force along n at the
-// element's nodes k and k + 1, shared as (1 − s, s).
 // |g| of the batch (m/s²).
 inline double gravity_magnitude(const RodBatch<double>& b) {
   return std::sqrt(b.model.gravity[0] * b.model.gravity[0] + b.model.gravity[1] * b.model.gravity[1] +
                    b.model.gravity[2] * b.model.gravity[2]);
 }
 
+// A touch of a collider that may carry load: a unit force along n at the
+// element's nodes k and k + 1, shared as (1 − s, s).
 struct PreloadTouch {
   int node = 0;  // slot of the element's first node
   double s = 0;
