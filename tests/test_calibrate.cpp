@@ -187,6 +187,7 @@ Measurements tip_track(double E, double tau, int n = 10, double duration = 1.0, 
   ro.output = temp_path("calibrate_truth.h5");
   ro.frames = RunOptions::Frames::none;
   const std::vector<double> v = observed_values(run_sweep(sw, ro).run.probes[0].observed);
+  std::remove(ro.output.c_str());
   t.x.resize(m.time.size());
   for (std::size_t i = 0; i < m.time.size(); ++i)
     for (int a = 0; a < 3; ++a) t.x[i][std::size_t(a)] = v[std::size_t(a) * m.time.size() + i];
@@ -358,6 +359,7 @@ TEST(Calibrate, FitsAModulusToAMeasuredScalarObservable) {
   ro.output = temp_path("calibrate_scalar_truth.h5");
   ro.frames = RunOptions::Frames::none;
   const double t = observed_values(run_sweep(sw, ro).run.probes[0].observed)[0];
+  std::remove(ro.output.c_str());
   ASSERT_TRUE(t > 0.01 && t < 0.5) << t;
   const std::string text = beam(3e5, 0.02) + obs;
   const std::string path = temp_path("calibrate_scalars.csv");
@@ -416,6 +418,7 @@ TEST(Calibrate, FitsAModulusToAMeasuredScalarObservable) {
   } catch (const SceneError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot be weighed against the scalars"), std::string::npos) << e.what();
   }
+  std::remove(path.c_str());
 }
 
 TEST(Calibrate, TheFrictionOfASlideOnAnInclineIsRecoveredWithinItsUncertainty) {

@@ -378,3 +378,44 @@ void mixed_batch() {
 
 TEST(ImplicitLanes, MixedBatchStepMatchesScalarDouble) { mixed_batch<double>(); }
 TEST(ImplicitLanes, MixedBatchStepMatchesScalarFloat) { mixed_batch<float>(); }
+
+namespace {
+
+// A batch of one segment (a calibration's generation, a small sweep): its
+// stages run on one thread, its solve shares out its lane groups over the
+// threads, and its plan cuts one or three full groups into halves for that
+// (host/core/step/implicit_plan.h plan_segment). `count` rods of 20
+// elements, damped, clamped or free; stiff ones in a float batch (their
+// solve in double, kImplicitLanes<double> lanes at a time). 20 steps on 1, 2
+// and 3 threads give the same state bit for bit (a regression reference:
+// exact).
+template <class T>
+void small_batch_on_threads(int count, bool stiff) {
+  std::mt19937 rng(40 + unsigned(count));
+  std::vector<RodSpec> specs;
+  for (int i = 0; i < count; ++i) specs.push_back(random_rod(rng, 20, i % 4 != 3, 2e-3, stiff, 0.3));
+  const RodBatch<T> b0 = build_batch<T>(specs, {0, 0, -9.81});
+  ASSERT_EQ(b0.segments.size(), 1u);
+  // (stiff rods have no elastic step limit: their stable_dt is unbounded)
+  const T dt = T(stiff ? 1e-4 : 0.5 * stable_dt(b0).elastic);
+  std::uint64_t one = 0;
+  for (int threads : {1, 2, 3}) {
+    RodBatch<T> b = b0;
+    step_n<kAllTerms>(b, dt, 20, Exec{threads});
+    ASSERT_TRUE(std::isfinite(double(b.state.node_x[2][b.node_index(0, 20)])));
+    const std::uint64_t h = state_hash(b);
+    if (threads == 1) one = h;
+    EXPECT_EQ(h, one) << (sizeof(T) == 4 ? "float, " : "double, ") << count << " rods" << (stiff ? " (stiff)" : "")
+                      << ": 1 and " << threads << " threads differ";
+  }
+}
+
+}  // namespace
+
+TEST(ImplicitLanes, ABatchOfOneSegmentIsBitIdenticalOnAnyThreadCount) {
+  for (int count : {3, 8, 11, 13, 16, 24}) {
+    small_batch_on_threads<double>(count, false);
+    small_batch_on_threads<float>(count, false);
+  }
+  for (int count : {16, 24}) small_batch_on_threads<float>(count, true);
+}

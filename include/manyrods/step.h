@@ -50,6 +50,13 @@ struct Exec {
   // (docs/model.md "Stiff rods in float"). false: the solve in float, for
   // comparison only. Double batches ignore it.
   bool stiff_solve_in_double = true;
+  // Set by the step itself, not by callers: where the segment schedule runs
+  // a batch's fused segments one at a time (a batch of one or two of them:
+  // a small sweep, a calibration's generation; host/core/step/schedule.h),
+  // each segment's stages run on one thread but its implicit solve shares
+  // its lane groups over this many (the results are the same bit for bit:
+  // a rod's solve does not depend on the thread or the group width).
+  int solve_threads = 1;
 };
 
 // Runs task(i) for every i in [0, count) on OpenMP threads (a dynamic

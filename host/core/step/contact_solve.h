@@ -1241,7 +1241,7 @@ void viscous_update_with_contacts(RodBatch<T>& b, T h, const ColliderFrame<T>* f
                                   const Segment& r, int thread) {
   constexpr Terms kKernel = detail::solve_kernel_terms(kSolve);
   const ContactView<T> cv = contact_view(b, frames, kSolve.kelvin_voigt, kSolve.rod_contact);
-  if (cv.collider_count == 0 || cv.self_in_solve != 0 || cv.rods_in_solve != 0 || b.workspace->contact_solve.size() < std::size_t(std::max(ex.threads, thread + 1)) ||
+  if (cv.collider_count == 0 || cv.self_in_solve != 0 || cv.rods_in_solve != 0 || b.workspace->contact_solve.size() < std::size_t(std::max({ex.threads, ex.solve_threads, thread + 1})) ||
       b.workspace->contact_fused.size() < b.rods.size() || b.workspace->contact_hold.size() < b.rods.size()) {
     detail::solve_segment<kKernel, 0>(b, h, ex, r, thread);
     return;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "host/core/step/schedule.h"
 #include "kernels/viscous_implicit_partitioned.h"
 
 namespace manyrods {
@@ -17,7 +18,7 @@ std::size_t partition_values(int cells, int lanes, int k) {
 }
 
 std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& rods, const Segment& seg,
-                                 int lanes, int buffer_cells, bool kelvin_voigt) {
+                                 int lanes, int buffer_cells, bool kelvin_voigt, bool share) {
   plan.lanes = lanes;
   plan.buffer_cells = buffer_cells;
   const int first_rod = int(plan.rods.size()), first_group = int(plan.groups.size());
@@ -43,7 +44,9 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
     const bool fits = lanes * (cells + 1) <= buffer_cells;
     const bool fits_half = half_lanes > 1 && half_lanes * (cells + 1) <= buffer_cells;
     const int count = fits ? std::min(lanes, n - a) : fits_half ? std::min(half_lanes, n - a) : 1;
-    SolveGroup g{a, count, !fits};
+    // a group that half the lanes hold runs at half width (the same values
+    // bit for bit, about half the work)
+    SolveGroup g{a, count, !fits || (half_lanes > 1 && count <= half_lanes)};
     if (count == 1 && lanes > 1 && cells >= kPartitionMinCells) {
       g.half = false;
       g.parts = (cells + kPartitionCells - 1) / kPartitionCells;
@@ -52,6 +55,23 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
     }
     plan.groups.push_back(g);
     a += count;
+  }
+  // a segment stepped alone whose groups two threads would not share evenly
+  // (one or three of them): its full groups in halves
+  const int plain = int(plan.groups.size()) - first_group;
+  if (share && half_lanes > 1 && plain % 2 == 1 && plain < 4) {
+    std::vector<SolveGroup> cut;
+    for (int i = first_group; i < int(plan.groups.size()); ++i) {
+      const SolveGroup& g = plan.groups[std::size_t(i)];
+      if (g.half || g.parts > 0 || g.count <= half_lanes) {
+        cut.push_back(g);
+        continue;
+      }
+      cut.push_back(SolveGroup{g.first, half_lanes, true});
+      cut.push_back(SolveGroup{g.first + half_lanes, g.count - half_lanes, true});
+    }
+    plan.groups.resize(std::size_t(first_group));
+    plan.groups.insert(plan.groups.end(), cut.begin(), cut.end());
   }
   // the prescribed ones: full groups, or one rod in one lane (never
   // partitioned)
@@ -73,7 +93,7 @@ void build_solve_plans(std::array<SolvePlan, 2>& plans, std::vector<Segment>& se
     plans[kv].lanes = lanes;
     plans[kv].buffer_cells = buffer_cells;
     for (Segment& seg : segments) {
-      const auto [g0, g1] = plan_segment(plans[kv], rods, seg, lanes, buffer_cells, kv == 1);
+      const auto [g0, g1] = plan_segment(plans[kv], rods, seg, lanes, buffer_cells, kv == 1, segments_alone(segments));
       seg.groups_begin[kv] = g0;
       seg.groups_end[kv] = g1;
     }

@@ -11,7 +11,8 @@
 // group of fewer rods is filled with copies of its last rod by the solve.
 // Where `lanes` lanes of a rod do not fit a thread's buffer
 // (lanes × (cells + 1) > buffer cells), lanes/2 lanes run it (the kernel at
-// half width); a group of one rod, or one too long for that, holds one rod
+// half width), and so do groups of at most lanes/2 rods (about half the
+// work); a group of one rod, or one too long for that, holds one rod
 // (the solve runs it in one lane in double, by the scalar kernel in float,
 // host/core/step/implicit_solve.h). The groups depend only on the rods of the segment, and
 // a rod's result only on the kernel that solves it (not on the other rods of
@@ -61,8 +62,12 @@ inline bool needs_implicit_solve(const RodInfo& rod, bool kelvin_voigt) {
 
 // Appends the groups of segment `seg` to `plan` (lanes per group, a buffer
 // of buffer_cells cells per thread) and returns their range [first, last).
+// `share` (host/core/step/schedule.h segments_alone): where that leaves one or three groups of rods
+// without prescribed velocities, its full ones are cut in halves (lanes/2
+// each), which two threads share evenly; a rod's values then come from the
+// half-width kernel, on any thread count.
 std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& rods, const Segment& seg,
-                                 int lanes, int buffer_cells, bool kelvin_voigt);
+                                 int lanes, int buffer_cells, bool kelvin_voigt, bool share = false);
 
 // Both plans of a batch ([0] without, [1] with the Kelvin–Voigt term), with
 // each segment's group ranges set.

@@ -208,7 +208,8 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
   const bool own = !before(&r, b.segments.data()) && before(&r, b.segments.data() + b.segments.size());
   SolvePlan other;
   if (!own || plan->lanes != W || plan->buffer_cells != b.workspace->visc_cells) {
-    std::tie(g0, g1) = plan_segment(other, b.rods, r, W, b.workspace->visc_cells, kT.kelvin_voigt);
+    std::tie(g0, g1) =
+        plan_segment(other, b.rods, r, W, b.workspace->visc_cells, kT.kelvin_voigt, segments_alone(b.segments));
     plan = &other;
   }
   if (g0 == g1) return;
@@ -290,9 +291,13 @@ void solve_segment(RodBatch<T>& b, T h, const Exec& ex, const Segment& r, int th
     else
       viscous_implicit_lanes<kT, W>(first, cells, h, stiff_h, m, s, sc);
   };
-  if (ex.threads > 1 && g1 - g0 > 1) {
+  // the groups on ex.threads threads, or a fused segment's solve_threads
+  // (Exec: the schedule runs it alone; its plan has cut it into groups that
+  // share out, host/core/step/implicit_plan.h)
+  const int threads = std::max({ex.threads, ex.solve_threads, 1});
+  if (threads > 1 && g1 - g0 > 1) {
     const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's (host/core/step/fp_env.h)
-#pragma omp parallel num_threads(ex.threads)
+#pragma omp parallel num_threads(std::min(threads, g1 - g0))
     {
       const RegionFpScope fp(mode);
 #pragma omp for schedule(dynamic, 1)

@@ -9,7 +9,9 @@
 // segments that are not fused are stepped stage by stage with all threads.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
+#include <vector>
 
 #include <omp.h>
 
@@ -18,6 +20,12 @@
 #include "manyrods/step.h"
 
 namespace manyrods {
+
+// Whether for_each_segment steps a batch of these segments one at a time
+// (one or two of them: even and odd ones would not run side by side), each
+// with its implicit solve shared out over the threads (its plan cut for
+// that, host/core/step/implicit_plan.h plan_segment).
+inline bool segments_alone(const std::vector<Segment>& segments) { return segments.size() <= 2; }
 
 // The whole batch as one range of slots and rods.
 template <class T>
@@ -30,16 +38,28 @@ Segment whole(const RodBatch<T>& b) {
 // another thread writes it; segments only read their neighbours' root
 // ghost nodes, which never move — a driven root moves node 0 and the clamp
 // frame of its own rods), `thread` being the OpenMP thread number; then
-// the big ones one by one with all threads (thread = 0).
+// the big ones one by one with all threads (thread = 0). Where the fused
+// segments run one at a time (one or two of them), each gets
+// Exec::solve_threads = ex.threads: its implicit solve shares out its lane
+// groups (host/core/step/implicit_solve.h), its other stages stay on one
+// thread (a parallel region per stage costs more than their work).
 template <class T, class F>
 void for_each_segment(RodBatch<T>& b, const Exec& ex, F&& run) {
   const int n = int(b.segments.size());
   Exec serial = ex;  // every option of the caller's, on one thread
   serial.threads = 1;
+  // segments one at a time: the implicit solve of each may use all threads
+  const bool parallel = ex.threads > 1 && !segments_alone(b.segments);
+  serial.solve_threads = parallel ? 1 : std::max(ex.threads, 1);
   if (ex.profile) ex.profile->reserve(ex.threads);
   const RegionFpMode mode = RegionFpMode::of_caller();  // the caller's, for every thread (host/core/step/fp_env.h)
   for (int parity = 0; parity < 2; ++parity) {
-#pragma omp parallel num_threads(ex.threads) if (ex.threads > 1 && n > 2)
+    if (!parallel) {  // (no region: one nested in it would start its threads anew, ~50 µs)
+      for (int i = parity; i < n; i += 2)
+        if (b.segments[i].fused) run(b.segments[i], serial, 0);
+      continue;
+    }
+#pragma omp parallel num_threads(ex.threads)
     {
       const RegionFpScope fp(mode);
 #pragma omp for schedule(static, 1)
