@@ -11,7 +11,9 @@
 //     a last group filled with copies, undamped rods, a rod longer than a
 //     segment: the partitioned solve) stepped with step_n
 //     against the same stages with the scalar solve, step by step; and
-//     step_n on 1 and 2 threads bit for bit.
+//     step_n on 1 and 2 threads bit for bit;
+//   * a batch of one segment, whose solve shares its groups (or their
+//     halves) over the threads: 1, 2 and 3 threads bit for bit.
 //
 // Round-off bound (the reasoning of tests/reference.h "Round-off scales"):
 // both kernels solve A u = b, A = M + hD symmetric positive definite (fixed
