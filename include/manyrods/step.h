@@ -55,7 +55,7 @@ struct Exec {
   // a small sweep, a calibration's generation; host/core/step/schedule.h),
   // each segment's stages run on one thread but its implicit solve shares
   // its lane groups over this many (the results are the same bit for bit:
-  // a rod's solve does not depend on the thread or the group width).
+  // the groups, and so each rod's kernel, do not depend on the thread count).
   int solve_threads = 1;
 };
 

@@ -44,8 +44,9 @@ std::pair<int, int> plan_segment(SolvePlan& plan, const std::vector<RodInfo>& ro
     const bool fits = lanes * (cells + 1) <= buffer_cells;
     const bool fits_half = half_lanes > 1 && half_lanes * (cells + 1) <= buffer_cells;
     const int count = fits ? std::min(lanes, n - a) : fits_half ? std::min(half_lanes, n - a) : 1;
-    // a group that half the lanes hold runs at half width (the same values
-    // bit for bit, about half the work)
+    // a group that half the lanes hold runs at half width (about half the
+    // work; the half-width kernel may round differently from the full one,
+    // so this depends on the rods only, never on the threads)
     SolveGroup g{a, count, !fits || (half_lanes > 1 && count <= half_lanes)};
     if (count == 1 && lanes > 1 && cells >= kPartitionMinCells) {
       g.half = false;
